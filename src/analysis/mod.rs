@@ -1,0 +1,2 @@
+//! Analyses shared by every method: flow front and height (D01, D03), energies, packing.
+pub mod front;

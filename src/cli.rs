@@ -1,0 +1,294 @@
+//! The command line (thin: parse, call the library, map errors to exit codes).
+//! Exit codes: 0 ok, 1 a stage failed, 2 bad input (nothing run).
+
+use std::path::{Path, PathBuf};
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use crate::pipeline::run::{Freshness, Outcome, Project, RunError, RunOptions, status};
+use crate::pipeline::{Override, load};
+
+/// granrepro — regenerate the figures and tables of Kumar (2015), thesis chapter 4.
+#[derive(Parser, Debug)]
+#[command(name = "granrepro", version, about)]
+pub struct Cli {
+    /// Pipeline file.
+    #[arg(long, global = true, default_value = "pipeline.yaml")]
+    pub pipeline: PathBuf,
+    /// Command.
+    #[command(subcommand)]
+    pub cmd: Cmd,
+}
+
+/// Profiles.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+pub enum ProfileArg {
+    /// Minutes on 2 cores (CI, golden snapshots).
+    Quick,
+    /// The chapter's resolution.
+    Paper,
+}
+
+impl ProfileArg {
+    fn name(self) -> &'static str {
+        match self {
+            ProfileArg::Quick => "quick",
+            ProfileArg::Paper => "paper",
+        }
+    }
+}
+
+/// DAG output formats.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+pub enum DagFormat {
+    /// Graphviz DOT.
+    Dot,
+    /// Mermaid flowchart.
+    Mermaid,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Cmd {
+    /// Run stages (all, or the named ones and what they need).
+    Run {
+        /// Target stage (repeatable; a matrix base id means all its members).
+        #[arg(long = "stage")]
+        stages: Vec<String>,
+        /// Run exactly this stage from inputs already in the cache (repeatable).
+        #[arg(long)]
+        only: Vec<String>,
+        /// Profile.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+        /// Re-run the targets even if cached.
+        #[arg(long)]
+        force: bool,
+        /// Print the plan only.
+        #[arg(long)]
+        dry_run: bool,
+        /// Stages run at once.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// Override a parameter: STAGE.KEY=VALUE (part of the cache key).
+        #[arg(long = "set")]
+        sets: Vec<String>,
+        /// No progress bars.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// List stages (id, kind, inputs, caption).
+    List {
+        /// Profile the params are resolved for.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+        /// List the stage kinds this build knows instead.
+        #[arg(long)]
+        kinds: bool,
+    },
+    /// Print the stage graph.
+    Dag {
+        /// Output format.
+        #[arg(long, value_enum, default_value = "dot")]
+        format: DagFormat,
+    },
+    /// Fresh / stale (and why) / missing for every stage.
+    Status {
+        /// Profile.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+        /// Override a parameter: STAGE.KEY=VALUE.
+        #[arg(long = "set")]
+        sets: Vec<String>,
+    },
+    /// Remove the cache (and with --reports, the reports).
+    Clean {
+        /// Also remove reports/.
+        #[arg(long)]
+        reports: bool,
+    },
+}
+
+fn project_of(pipeline: &Path) -> Project {
+    let root = pipeline.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+    Project::new(&root)
+}
+
+fn parse_sets(sets: &[String]) -> Result<Vec<Override>, i32> {
+    let mut out = Vec::new();
+    let mut bad = false;
+    for s in sets {
+        match Override::parse(s) {
+            Ok(o) => out.push(o),
+            Err(e) => {
+                eprintln!("error: <command line>: {e}");
+                bad = true;
+            }
+        }
+    }
+    if bad { Err(2) } else { Ok(out) }
+}
+
+/// Entry point; returns the process exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    run_cli(cli)
+}
+
+/// Run a parsed command line.
+pub fn run_cli(cli: Cli) -> i32 {
+    let proj = project_of(&cli.pipeline);
+    match cli.cmd {
+        Cmd::Run { stages, only, profile, force, dry_run, jobs, sets, quiet } => {
+            let sets = match parse_sets(&sets) {
+                Ok(s) => s,
+                Err(c) => return c,
+            };
+            let p = match load(&cli.pipeline, profile.name(), &sets) {
+                Ok(p) => p,
+                Err(d) => {
+                    eprintln!("{d}");
+                    return 2;
+                }
+            };
+            let opts = RunOptions { targets: stages, only, force, dry_run, jobs, quiet };
+            match crate::pipeline::run::run(&p, &proj, &opts) {
+                Err(RunError::BadInput(m)) => {
+                    eprintln!("error: {m}");
+                    2
+                }
+                Err(RunError::Io(e)) => {
+                    eprintln!("error: {e}");
+                    1
+                }
+                Ok(summary) => {
+                    if dry_run {
+                        for s in &summary.stages {
+                            match &s.outcome {
+                                Outcome::Cached => println!("  cached     {}", s.id),
+                                Outcome::WouldRun(why) => println!("  would run  {}  ({why})", s.id),
+                                _ => {}
+                            }
+                        }
+                        return 0;
+                    }
+                    let failed: Vec<String> = summary
+                        .stages
+                        .iter()
+                        .filter_map(|s| match &s.outcome {
+                            Outcome::Failed(m) => Some(format!("  {}: {m}", s.id)),
+                            Outcome::Skipped(m) => Some(format!("  {}: skipped ({m})", s.id)),
+                            _ => None,
+                        })
+                        .collect();
+                    // Headline scalars of the targets.
+                    for s in &summary.stages {
+                        if opts.targets.iter().any(|t| p.members(t).contains(&s.id.as_str())) {
+                            let path = proj.reports.join(&p.profile).join(format!("{}.json", s.id));
+                            if let Ok(v) = std::fs::read(&path).map(|b| serde_json::from_slice::<serde_json::Value>(&b).unwrap_or_default()) {
+                                if let Some(sc) = v["scalars"].as_object() {
+                                    let line: Vec<String> = sc.iter().take(12).map(|(k, v)| format!("{k} = {}", v)).collect();
+                                    if !line.is_empty() {
+                                        println!("{}: {}", s.id, line.join(", "));
+                                    }
+                                }
+                                for c in v["claims"].as_array().into_iter().flatten() {
+                                    println!("  claim {}: paper {} ours {} ({})", c["id"].as_str().unwrap_or(""), c["paper"], c["ours"], if c["pass"].as_bool() == Some(true) { "pass" } else { "FAIL" });
+                                }
+                            }
+                        }
+                    }
+                    println!(
+                        "{} ran, {} cached; reports in {}",
+                        summary.ran().len(),
+                        summary.cached().len(),
+                        proj.reports.join(&p.profile).display()
+                    );
+                    if failed.is_empty() {
+                        0
+                    } else {
+                        eprintln!("error: stage(s) failed:\n{}", failed.join("\n"));
+                        1
+                    }
+                }
+            }
+        }
+        Cmd::List { profile, kinds } => {
+            if kinds {
+                for (n, k) in crate::stages::registry() {
+                    println!("{n:<20} v{}  {}", k.version, k.about);
+                }
+                return 0;
+            }
+            match load(&cli.pipeline, profile.name(), &[]) {
+                Ok(p) => {
+                    for s in &p.stages {
+                        let inputs: Vec<String> = s.inputs.iter().flat_map(|(_, v)| v.iter().cloned()).collect();
+                        println!("{:<28} {:<18} inputs: [{}]  {}", s.id, s.kind, inputs.join(", "), s.caption.clone().unwrap_or_default());
+                    }
+                    0
+                }
+                Err(d) => {
+                    eprintln!("{d}");
+                    2
+                }
+            }
+        }
+        Cmd::Dag { format } => match load(&cli.pipeline, "quick", &[]) {
+            Ok(p) => {
+                print!("{}", match format {
+                    DagFormat::Dot => crate::pipeline::dag::to_dot(&p),
+                    DagFormat::Mermaid => crate::pipeline::dag::to_mermaid(&p),
+                });
+                0
+            }
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
+        Cmd::Status { profile, sets } => {
+            let sets = match parse_sets(&sets) {
+                Ok(s) => s,
+                Err(c) => return c,
+            };
+            match load(&cli.pipeline, profile.name(), &sets) {
+                Ok(p) => {
+                    for (id, f) in status(&p, &proj) {
+                        match f {
+                            Freshness::Fresh => println!("  fresh    {id}"),
+                            Freshness::Missing => println!("  missing  {id}"),
+                            Freshness::Stale(r) => println!("  stale    {id}: {}", r.join("; ")),
+                        }
+                    }
+                    0
+                }
+                Err(d) => {
+                    eprintln!("{d}");
+                    2
+                }
+            }
+        }
+        Cmd::Clean { reports } => {
+            let mut code = 0;
+            for dir in [Some(proj.root.join(".granrepro")), reports.then(|| proj.reports.clone())].into_iter().flatten() {
+                if dir.exists() {
+                    if let Err(e) = std::fs::remove_dir_all(&dir) {
+                        eprintln!("error: cannot remove {}: {e}", dir.display());
+                        code = 1;
+                    } else {
+                        println!("removed {}", dir.display());
+                    }
+                }
+            }
+            code
+        }
+    }
+}

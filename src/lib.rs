@@ -1,0 +1,20 @@
+//! granrepro — regenerate every figure and table of the thesis chapter "Multi-scale
+//! modelling of dry granular flows" (K. Kumar, PhD thesis, University of Cambridge, 2015,
+//! chapter 4; DOI 10.5281/zenodo.160339, CC BY 4.0) from one declarative pipeline file.
+//!
+//! Layout: [`pipeline`] plans and runs stages with a content-addressed cache; [`stages`]
+//! holds the stage kinds (one pure function of params and input artifacts each);
+//! [`sample`], [`fit`], [`analysis`] are the numerics they use; [`report`] writes tables,
+//! figures and the HTML index. Solvers never touch files.
+#![warn(missing_docs)]
+
+pub mod analysis;
+pub mod cli;
+pub mod fit;
+pub mod math;
+pub mod pipeline;
+pub mod report;
+pub mod sample;
+pub mod stages;
+pub mod validate;
+pub mod vtk;

@@ -1,0 +1,13 @@
+//! The declarative pipeline: load and validate `pipeline.yaml`, plan the stages a target
+//! needs, run them through the content-addressed cache, publish reports.
+pub mod cache;
+pub mod context;
+pub mod dag;
+pub mod diag;
+pub mod run;
+pub mod spec;
+
+pub use context::{Claim, InputRef, Output, StageCtx};
+pub use diag::{Diagnostic, Diagnostics};
+pub use run::{Outcome, Project, RunOptions, RunSummary};
+pub use spec::{Override, Pipeline, Stage, load};

@@ -1,0 +1,482 @@
+//! Planning and running stages: keys computed before anything runs, cached stages
+//! served from the cache, the rest run in dependency order with up to `jobs` stages at
+//! once, each writing its cache entry atomically and a run record, then published to
+//! `reports/<profile>/`.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::Instant;
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::Value;
+
+use super::cache::{Cache, KeyRecord, Lookup, write_atomic};
+use super::context::{InputRef, Output, StageCtx};
+use super::dag::closure;
+use super::spec::{Pipeline, Stage};
+
+/// Where a project keeps its cache, state and reports.
+#[derive(Debug, Clone)]
+pub struct Project {
+    /// Directory of pipeline.yaml.
+    pub root: PathBuf,
+    /// The cache.
+    pub cache: Cache,
+    /// `.granrepro/state`: the last key record of each stage per profile (for `status`).
+    pub state: PathBuf,
+    /// `reports/`.
+    pub reports: PathBuf,
+}
+
+impl Project {
+    /// Project rooted at the directory of the pipeline file.
+    pub fn new(root: &Path) -> Project {
+        Project {
+            root: root.to_path_buf(),
+            cache: Cache::new(root.join(".granrepro").join("cache")),
+            state: root.join(".granrepro").join("state"),
+            reports: root.join("reports"),
+        }
+    }
+    fn state_file(&self, profile: &str, id: &str) -> PathBuf {
+        self.state.join(profile).join(format!("{id}.json"))
+    }
+}
+
+/// How to run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Target stage ids (matrix base ids allowed); empty = every stage.
+    pub targets: Vec<String>,
+    /// Run exactly these stages from inputs already cached (no upstream work).
+    pub only: Vec<String>,
+    /// Re-run the targets even when cached.
+    pub force: bool,
+    /// Plan only.
+    pub dry_run: bool,
+    /// Stages at once (≥ 1).
+    pub jobs: usize,
+    /// No progress bars or per-stage lines.
+    pub quiet: bool,
+}
+
+/// What happened to one stage.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Served from the cache.
+    Cached,
+    /// Computed now.
+    Ran {
+        /// Wall time [s].
+        wall_s: f64,
+    },
+    /// Would run (dry run), with the reason.
+    WouldRun(String),
+    /// Failed with this message.
+    Failed(String),
+    /// Not run because an input failed.
+    Skipped(String),
+}
+
+/// Per-stage result of a run.
+#[derive(Debug, Clone)]
+pub struct StageReport {
+    /// Stage id.
+    pub id: String,
+    /// Cache key.
+    pub key: String,
+    /// Outcome.
+    pub outcome: Outcome,
+}
+
+/// Result of a run.
+#[derive(Debug, Clone, Default)]
+pub struct RunSummary {
+    /// Stages in execution order.
+    pub stages: Vec<StageReport>,
+}
+
+impl RunSummary {
+    /// Ids of stages computed in this run.
+    pub fn ran(&self) -> Vec<&str> {
+        self.stages.iter().filter(|s| matches!(s.outcome, Outcome::Ran { .. })).map(|s| s.id.as_str()).collect()
+    }
+    /// Ids of stages served from cache.
+    pub fn cached(&self) -> Vec<&str> {
+        self.stages.iter().filter(|s| s.outcome == Outcome::Cached).map(|s| s.id.as_str()).collect()
+    }
+    /// Did any stage fail?
+    pub fn failed(&self) -> bool {
+        self.stages.iter().any(|s| matches!(s.outcome, Outcome::Failed(_) | Outcome::Skipped(_)))
+    }
+}
+
+/// Errors that stop a run before anything runs (exit code 2).
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Bad request (unknown target, missing cached input for `--only`).
+    #[error("{0}")]
+    BadInput(String),
+    /// I/O problem.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Compute the key record of every stage in topological order.
+pub fn key_records(p: &Pipeline) -> HashMap<String, (KeyRecord, String)> {
+    let mut out: HashMap<String, (KeyRecord, String)> = HashMap::new();
+    for s in &p.stages {
+        let inputs = s
+            .inputs
+            .iter()
+            .map(|(role, ids)| (role.clone(), ids.iter().map(|id| (id.clone(), out[id].1.clone())).collect()))
+            .collect();
+        let rec = KeyRecord { kind: s.kind.clone(), version: s.version, params: s.params.clone(), profile: p.profile.clone(), inputs };
+        let key = rec.key();
+        out.insert(s.id.clone(), (rec, key));
+    }
+    out
+}
+
+/// Why a stage is stale, one line per reason.
+pub fn stale_reasons(old: &KeyRecord, new: &KeyRecord) -> Vec<String> {
+    let mut r = Vec::new();
+    if old.kind != new.kind {
+        r.push(format!("kind changed ({} → {})", old.kind, new.kind));
+    }
+    if old.version != new.version {
+        r.push(format!("solver version changed ({} → {})", old.version, new.version));
+    }
+    let (a, b) = (flatten(&old.params), flatten(&new.params));
+    for (k, v) in &b {
+        match a.get(k) {
+            Some(o) if o == v => {}
+            Some(o) => r.push(format!("params.{k} changed ({o} → {v})")),
+            None => r.push(format!("params.{k} added ({v})")),
+        }
+    }
+    for k in a.keys() {
+        if !b.contains_key(k) {
+            r.push(format!("params.{k} removed"));
+        }
+    }
+    let oi: HashMap<&str, &str> = old.inputs.iter().flat_map(|(_, v)| v.iter().map(|(i, k)| (i.as_str(), k.as_str()))).collect();
+    for (_, v) in &new.inputs {
+        for (id, k) in v {
+            match oi.get(id.as_str()) {
+                Some(ok) if ok == k => {}
+                Some(_) => r.push(format!("input `{id}` changed")),
+                None => r.push(format!("input `{id}` added")),
+            }
+        }
+    }
+    if r.is_empty() {
+        r.push("entry missing from the cache".into());
+    }
+    r
+}
+
+fn flatten(v: &Value) -> BTreeMap<String, String> {
+    fn go(prefix: &str, v: &Value, out: &mut BTreeMap<String, String>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    go(&if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") }, x, out);
+                }
+            }
+            other => {
+                out.insert(prefix.to_string(), other.to_string());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    go("", v, &mut out);
+    out
+}
+
+/// Freshness of one stage, for `status`.
+#[derive(Debug, Clone)]
+pub enum Freshness {
+    /// Cached entry valid for the current key.
+    Fresh,
+    /// Ran before with other inputs; the reasons.
+    Stale(Vec<String>),
+    /// Never ran (or the entry is gone).
+    Missing,
+}
+
+/// Status of every stage.
+pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
+    let keys = key_records(p);
+    p.stages
+        .iter()
+        .map(|s| {
+            let (rec, key) = &keys[&s.id];
+            let f = if proj.cache.verify(&proj.cache.entry_dir(key), key).is_ok() {
+                Freshness::Fresh
+            } else {
+                match std::fs::read(proj.state_file(&p.profile, &s.id)).ok().and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok()) {
+                    Some(old) => Freshness::Stale(stale_reasons(&old, rec)),
+                    None => Freshness::Missing,
+                }
+            };
+            (s.id.clone(), f)
+        })
+        .collect()
+}
+
+/// Plan and run.
+pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary, RunError> {
+    let keys = key_records(p);
+    let set: Vec<String> = if !opts.only.is_empty() {
+        let mut v = Vec::new();
+        for o in &opts.only {
+            let m = p.members(o);
+            if m.is_empty() {
+                return Err(RunError::BadInput(format!("--only {o}: no such stage (see `granrepro list`)")));
+            }
+            v.extend(m.into_iter().map(str::to_string));
+        }
+        // Every input must already be in the cache.
+        let inside: HashSet<&String> = v.iter().collect();
+        let mut missing = Vec::new();
+        for id in &v {
+            for (_, ids) in &p.get(id).unwrap().inputs {
+                for d in ids {
+                    if inside.contains(d) {
+                        continue;
+                    }
+                    let k = &keys[d].1;
+                    if !matches!(proj.cache.lookup(k), Lookup::Fresh(_)) {
+                        missing.push(format!("{d} (needed by {id}, key {k})"));
+                    }
+                }
+            }
+        }
+        if !missing.is_empty() {
+            return Err(RunError::BadInput(format!(
+                "--only: inputs not in the cache: {}\n  help: run them first (`granrepro run --stage ID`) or share the cache directory",
+                missing.join(", ")
+            )));
+        }
+        p.stages.iter().filter(|s| v.contains(&s.id)).map(|s| s.id.clone()).collect()
+    } else {
+        closure(p, &opts.targets).map_err(|u| RunError::BadInput(format!("unknown stage(s): {} (see `granrepro list`)", u.join(", "))))?
+    };
+    let forced: HashSet<String> = if opts.force {
+        let t = if !opts.only.is_empty() { &opts.only } else { &opts.targets };
+        if t.is_empty() { set.iter().cloned().collect() } else { t.iter().flat_map(|x| p.members(x).into_iter().map(str::to_string)).collect() }
+    } else {
+        HashSet::new()
+    };
+
+    let mut summary = RunSummary::default();
+    if opts.dry_run {
+        for id in &set {
+            let key = keys[id].1.clone();
+            let outcome = if forced.contains(id) {
+                Outcome::WouldRun("forced".into())
+            } else if proj.cache.verify(&proj.cache.entry_dir(&key), &key).is_ok() {
+                Outcome::Cached
+            } else {
+                Outcome::WouldRun(match std::fs::read(proj.state_file(&p.profile, id)).ok().and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok()) {
+                    Some(old) => stale_reasons(&old, &keys[id].0).join("; "),
+                    None => "never ran".into(),
+                })
+            };
+            summary.stages.push(StageReport { id: id.clone(), key, outcome });
+        }
+        return Ok(summary);
+    }
+
+    let mp = MultiProgress::with_draw_target(if opts.quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
+    let jobs = opts.jobs.max(1);
+    let in_set: HashSet<&String> = set.iter().collect();
+    let mut done: HashMap<String, bool> = HashMap::new(); // id -> ok
+    let mut running: HashSet<String> = HashSet::new();
+    let (tx, rx) = mpsc::channel::<(String, Result<f64, String>)>();
+    std::thread::scope(|scope| {
+        loop {
+            let mut progressed = false;
+            for id in &set {
+                if done.contains_key(id) || running.contains(id) {
+                    continue;
+                }
+                let st = p.get(id).unwrap();
+                let deps: Vec<&String> = st.inputs.iter().flat_map(|(_, v)| v.iter()).filter(|d| in_set.contains(d)).collect();
+                if let Some(bad) = deps.iter().find(|d| done.get(**d) == Some(&false)) {
+                    done.insert(id.clone(), false);
+                    summary.stages.push(StageReport { id: id.clone(), key: keys[id].1.clone(), outcome: Outcome::Skipped(format!("input `{bad}` failed")) });
+                    progressed = true;
+                    continue;
+                }
+                if !deps.iter().all(|d| done.get(*d) == Some(&true)) {
+                    continue;
+                }
+                let key = keys[id].1.clone();
+                if !forced.contains(id) {
+                    match proj.cache.lookup(&key) {
+                        Lookup::Fresh(_) => {
+                            write_state(proj, &p.profile, id, &keys[id].0);
+                            done.insert(id.clone(), true);
+                            summary.stages.push(StageReport { id: id.clone(), key, outcome: Outcome::Cached });
+                            if !opts.quiet {
+                                say(&mp, format!("  cached  {id}"));
+                            }
+                            progressed = true;
+                            continue;
+                        }
+                        Lookup::Corrupt(why) => {
+                            say(&mp, format!("warning: cache entry of `{id}` was corrupt ({why}); recomputing"));
+                        }
+                        Lookup::Missing => {}
+                    }
+                }
+                if running.len() >= jobs {
+                    continue;
+                }
+                running.insert(id.clone());
+                progressed = true;
+                let tx = tx.clone();
+                let pb = mp.add(ProgressBar::new(1000));
+                pb.set_style(ProgressStyle::with_template("{prefix:>24} [{bar:30}] {percent:>3}% {elapsed_precise} ETA {eta}").unwrap().progress_chars("=> "));
+                pb.set_prefix(id.clone());
+                let keys = &keys;
+                let stage = st.clone();
+                scope.spawn(move || {
+                    let r = run_one(p, proj, &stage, keys, pb.clone());
+                    pb.finish_and_clear();
+                    let _ = tx.send((stage.id.clone(), r));
+                });
+            }
+            if running.is_empty() && !progressed {
+                break;
+            }
+            if !running.is_empty() && !progressed {
+                let (id, r) = rx.recv().expect("worker channel");
+                running.remove(&id);
+                let key = keys[&id].1.clone();
+                match r {
+                    Ok(wall_s) => {
+                        if !opts.quiet {
+                            say(&mp, format!("  ran     {id}  ({wall_s:.2} s)"));
+                        }
+                        done.insert(id.clone(), true);
+                        summary.stages.push(StageReport { id, key, outcome: Outcome::Ran { wall_s } });
+                    }
+                    Err(msg) => {
+                        say(&mp, format!("  FAILED  {id}: {msg}"));
+                        done.insert(id.clone(), false);
+                        summary.stages.push(StageReport { id, key, outcome: Outcome::Failed(msg) });
+                    }
+                }
+            }
+        }
+    });
+    // Publish every stage that has a valid entry.
+    for r in &summary.stages {
+        if matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. }) {
+            publish(proj, &p.profile, &r.id, &proj.cache.entry_dir(&r.key))?;
+        }
+    }
+    if summary.stages.iter().any(|s| matches!(s.outcome, Outcome::Cached | Outcome::Ran { .. })) {
+        crate::report::html::write_index(&proj.reports.join(&p.profile), &p.profile)?;
+    }
+    Ok(summary)
+}
+
+/// Print a line above the progress bars, or plainly to stderr when they are hidden.
+fn say(mp: &MultiProgress, msg: String) {
+    if mp.is_hidden() {
+        eprintln!("{msg}");
+    } else {
+        let _ = mp.println(msg);
+    }
+}
+
+fn write_state(proj: &Project, profile: &str, id: &str, rec: &KeyRecord) {
+    if let Ok(b) = serde_json::to_vec_pretty(rec) {
+        let _ = write_atomic(&proj.state_file(profile, id), &b);
+    }
+}
+
+fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (KeyRecord, String)>, pb: ProgressBar) -> Result<f64, String> {
+    let (rec, key) = &keys[&st.id];
+    // Clear the old state first so an interrupted run can never look fresh.
+    let _ = std::fs::remove_file(proj.state_file(&p.profile, &st.id));
+    let kind = p.kinds[st.kind.as_str()];
+    let mut inputs: BTreeMap<String, Vec<InputRef>> = BTreeMap::new();
+    for (role, ids) in &st.inputs {
+        let v = ids
+            .iter()
+            .map(|id| InputRef { id: id.clone(), dir: proj.cache.entry_dir(&keys[id].1), params: p.get(id).unwrap().params.clone() })
+            .collect();
+        inputs.insert(role.clone(), v);
+    }
+    let ctx = StageCtx {
+        id: st.id.clone(),
+        profile: p.profile.clone(),
+        caption: st.caption.clone(),
+        params: st.params.clone(),
+        inputs,
+        progress: pb,
+        threads: rayon::current_num_threads(),
+    };
+    let started = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let t0 = Instant::now();
+    let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (kind.run)(&ctx)));
+    let wall_s = t0.elapsed().as_secs_f64();
+    let mut out: Output = match res {
+        Ok(Ok(o)) => o,
+        Ok(Err(e)) => return Err(format!("{e:#}")),
+        Err(panic) => {
+            let msg = panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_else(|| "panic".into());
+            return Err(format!("internal error (panic): {msg}"));
+        }
+    };
+    let input_hashes: Vec<Value> = st
+        .inputs
+        .iter()
+        .flat_map(|(role, ids)| ids.iter().map(move |id| (role, id)))
+        .map(|(role, id)| serde_json::json!({"role": role, "id": id, "key": keys[id].1, "manifest_blake3": proj.cache.manifest_hash(&keys[id].1)}))
+        .collect();
+    let record = serde_json::json!({
+        "stage": st.id, "kind": st.kind, "solver_version": st.version, "key": key,
+        "profile": p.profile, "params": rec.params, "inputs": input_hashes,
+        "wall_s": wall_s, "threads": ctx.threads, "started_unix_s": started,
+        "granrepro_version": env!("CARGO_PKG_VERSION"), "caption": st.caption, "notes": out.notes,
+    });
+    proj.cache.store(key, &st.id, &p.profile, &mut out, &record).map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
+    write_state(proj, &p.profile, &st.id, rec);
+    Ok(wall_s)
+}
+
+/// Copy an entry's artifacts to `reports/<profile>/` under the stage's name:
+/// `table.*` → `ID.*`, `figure.svg` → `ID.svg`, `result.json` → `ID.json`,
+/// `record.json` → `ID.record.json`, anything else `NAME` → `ID-NAME`.
+pub fn publish(proj: &Project, profile: &str, id: &str, entry: &Path) -> std::io::Result<()> {
+    let out = proj.reports.join(profile);
+    std::fs::create_dir_all(&out)?;
+    for e in std::fs::read_dir(entry)? {
+        let e = e?;
+        let name = e.file_name().to_string_lossy().to_string();
+        let dest = match name.as_str() {
+            "manifest.json" => continue,
+            "result.json" => {
+                // The entry may be shared by stages doing the same work: stamp our id.
+                let mut v: Value = serde_json::from_slice(&std::fs::read(e.path())?).map_err(std::io::Error::other)?;
+                v["stage"] = Value::String(id.to_string());
+                write_atomic(&out.join(format!("{id}.json")), &serde_json::to_vec_pretty(&v).map_err(std::io::Error::other)?)?;
+                continue;
+            }
+            "record.json" => format!("{id}.record.json"),
+            "table.parquet" => format!("{id}.parquet"),
+            "table.csv" => format!("{id}.csv"),
+            "figure.svg" => format!("{id}.svg"),
+            other => format!("{id}-{other}"),
+        };
+        write_atomic(&out.join(dest), &std::fs::read(e.path())?)?;
+    }
+    Ok(())
+}

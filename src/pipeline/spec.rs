@@ -1,0 +1,563 @@
+//! Loading and validating `pipeline.yaml` (schema in `docs/pipeline.md`).
+//!
+//! Parameters of a stage are merged, later layers winning, from: its `params_file`(s),
+//! the file's `profiles.<P>` section, the inline `params`, the entry's `profiles.<P>`,
+//! its matrix value, and `--set` overrides. The merged mapping is then checked by the
+//! kind's schema. Every problem is collected with file, line and key; nothing runs until
+//! the whole pipeline is valid.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use serde_json::Value as Json;
+use serde_yaml::{Mapping, Value as Yaml};
+
+use super::diag::{Diagnostics, locate, locate_stage};
+use crate::stages::{Kind, registry};
+
+/// Allowed profile names.
+pub const PROFILES: [&str; 2] = ["quick", "paper"];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PipelineFile {
+    version: u32,
+    #[serde(default)]
+    #[allow(dead_code)]
+    description: Option<String>,
+    stages: Vec<Yaml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StageEntry {
+    id: String,
+    kind: String,
+    #[serde(default)]
+    caption: Option<String>,
+    #[serde(default)]
+    params_file: Option<OneOrMany>,
+    #[serde(default)]
+    params: Option<Mapping>,
+    #[serde(default)]
+    profiles: BTreeMap<String, Mapping>,
+    #[serde(default)]
+    inputs: Option<InputsSpec>,
+    #[serde(default)]
+    matrix: Option<BTreeMap<String, Vec<Yaml>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum OneOrMany {
+    One(String),
+    Many(Vec<String>),
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum InputsSpec {
+    /// `[a, b]`: role = stage id.
+    List(Vec<String>),
+    /// `{role: id}` or `{role: [id, id]}`.
+    Map(BTreeMap<String, OneOrMany>),
+}
+
+/// One `--set STAGE.KEY=VALUE` override.
+#[derive(Debug, Clone)]
+pub struct Override {
+    /// Stage id (a matrix base id applies to every member).
+    pub stage: String,
+    /// Dotted key inside params.
+    pub key: String,
+    /// Value, parsed as YAML.
+    pub value: Yaml,
+}
+
+impl Override {
+    /// Parse `STAGE.KEY=VALUE`.
+    pub fn parse(s: &str) -> Result<Override, String> {
+        let (lhs, rhs) = s.split_once('=').ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE"))?;
+        let (stage, key) = lhs.split_once('.').ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE (no '.' between stage and key)"))?;
+        let value: Yaml = serde_yaml::from_str(rhs).map_err(|e| format!("--set {s}: value is not valid YAML: {e}"))?;
+        Ok(Override { stage: stage.to_string(), key: key.to_string(), value })
+    }
+}
+
+/// A resolved stage, ready to plan.
+#[derive(Debug, Clone)]
+pub struct Stage {
+    /// Unique id (matrix members: `<base>-<key><value>`).
+    pub id: String,
+    /// Id as written in pipeline.yaml.
+    pub base_id: String,
+    /// Kind name.
+    pub kind: String,
+    /// Kind's solver version.
+    pub version: u32,
+    /// Caption for the report.
+    pub caption: Option<String>,
+    /// Canonical params (defaults filled, keys sorted).
+    pub params: Json,
+    /// Inputs: role → upstream stage ids (in declared order).
+    pub inputs: Vec<(String, Vec<String>)>,
+    /// Line of the entry in pipeline.yaml.
+    pub line: Option<usize>,
+}
+
+/// A validated pipeline for one profile.
+#[derive(Debug, Clone)]
+pub struct Pipeline {
+    /// Path of pipeline.yaml.
+    pub path: PathBuf,
+    /// Directory holding pipeline.yaml (stage files are relative to it).
+    pub root: PathBuf,
+    /// Profile the params were resolved for.
+    pub profile: String,
+    /// Stages in topological order (inputs first; ties in file order).
+    pub stages: Vec<Stage>,
+    index: HashMap<String, usize>,
+    /// The kinds registry used.
+    pub kinds: BTreeMap<&'static str, Kind>,
+}
+
+impl Pipeline {
+    /// Stage by id.
+    pub fn get(&self, id: &str) -> Option<&Stage> {
+        self.index.get(id).map(|&i| &self.stages[i])
+    }
+    /// Ids of every member of a base id (a plain stage is its own single member).
+    pub fn members(&self, base: &str) -> Vec<&str> {
+        if let Some(&i) = self.index.get(base) {
+            return vec![self.stages[i].id.as_str()];
+        }
+        self.stages.iter().filter(|s| s.base_id == base).map(|s| s.id.as_str()).collect()
+    }
+}
+
+fn yaml_scalar_string(v: &Yaml) -> String {
+    match v {
+        Yaml::String(s) => s.clone(),
+        Yaml::Number(n) => n.to_string(),
+        Yaml::Bool(b) => b.to_string(),
+        other => serde_yaml::to_string(other).unwrap_or_default().trim().to_string(),
+    }
+}
+
+/// Deep-merge `over` into `base` (mappings merge key by key; anything else replaces).
+fn merge(base: &mut Yaml, over: &Yaml) {
+    match (base, over) {
+        (Yaml::Mapping(b), Yaml::Mapping(o)) => {
+            for (k, v) in o {
+                match b.get_mut(k) {
+                    Some(slot) => merge(slot, v),
+                    None => {
+                        b.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (b, o) => *b = o.clone(),
+    }
+}
+
+fn set_path(root: &mut Yaml, key: &str, value: Yaml) {
+    let mut cur = root;
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, p) in parts.iter().enumerate() {
+        if !matches!(cur, Yaml::Mapping(_)) {
+            *cur = Yaml::Mapping(Mapping::new());
+        }
+        let Yaml::Mapping(m) = cur else { unreachable!() };
+        let k = Yaml::String(p.to_string());
+        if i + 1 == parts.len() {
+            m.insert(k, value);
+            return;
+        }
+        if !m.contains_key(&k) {
+            m.insert(k.clone(), Yaml::Mapping(Mapping::new()));
+        }
+        cur = m.get_mut(&k).unwrap();
+    }
+}
+
+fn has_path(root: &Yaml, key: &[&str]) -> bool {
+    let mut cur = root;
+    for p in key {
+        match cur {
+            Yaml::Mapping(m) => match m.get(Yaml::String(p.to_string())) {
+                Some(v) => cur = v,
+                None => return false,
+            },
+            _ => return false,
+        }
+    }
+    true
+}
+
+/// Where a layer of params came from, for messages.
+struct Layer {
+    file: PathBuf,
+    text: Option<String>,
+    /// Path prefix of the layer's mapping inside its file.
+    prefix: Vec<String>,
+    anchor: usize,
+    value: Yaml,
+}
+
+/// Serialize a YAML value to canonical JSON (map keys sorted).
+pub fn to_json(v: &Yaml) -> Result<Json, String> {
+    let j = serde_json::to_value(v).map_err(|e| e.to_string())?;
+    Ok(canonical(j))
+}
+
+/// Sort object keys recursively.
+pub fn canonical(v: Json) -> Json {
+    match v {
+        Json::Object(m) => {
+            let sorted: BTreeMap<String, Json> = m.into_iter().map(|(k, v)| (k, canonical(v))).collect();
+            Json::Object(sorted.into_iter().collect())
+        }
+        Json::Array(a) => Json::Array(a.into_iter().map(canonical).collect()),
+        other => other,
+    }
+}
+
+/// Load and validate a pipeline for a profile, applying `--set` overrides.
+pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
+    let mut diags = Diagnostics::default();
+    let root = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+    let root = if root.as_os_str().is_empty() { PathBuf::from(".") } else { root };
+    if !PROFILES.contains(&profile) {
+        diags.push(Path::new("<command line>"), None, "--profile", format!("unknown profile `{profile}`"), format!("allowed: {}", PROFILES.join(", ")));
+        return Err(diags);
+    }
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) => {
+            diags.push(path, None, "", format!("cannot read the pipeline file: {e}"), "pass --pipeline PATH, or run from the directory holding pipeline.yaml");
+            return Err(diags);
+        }
+    };
+    let file: PipelineFile = match serde_yaml::from_str::<Yaml>(&text) {
+        Err(e) => {
+            let line = e.location().map(|l| l.line());
+            diags.push(path, line, "", format!("YAML syntax error: {e}"), "fix the YAML syntax (indentation, ':' after keys, matching quotes)");
+            return Err(diags);
+        }
+        Ok(v) => match serde_path_to_error::deserialize::<_, PipelineFile>(v) {
+            Ok(f) => f,
+            Err(e) => {
+                let inner = e.inner().to_string();
+                let field = inner.split('`').nth(1).unwrap_or("");
+                let line = if inner.starts_with("unknown field") { locate(&text, &[field], 1) } else { locate(&text, &[&e.path().to_string()], 1) };
+                diags.push(path, line, if inner.starts_with("unknown field") { field.to_string() } else { e.path().to_string() }, inner, "top-level keys: version, description, stages");
+                return Err(diags);
+            }
+        },
+    };
+    if file.version != 1 {
+        diags.push(path, locate(&text, &["version"], 1), "version", format!("unsupported pipeline version {}", file.version), "allowed: 1");
+    }
+    let kinds = registry();
+    let mut stages: Vec<Stage> = Vec::new();
+    let mut seen_base: HashMap<String, usize> = HashMap::new();
+    // Matrix of each base id (for pairing inputs).
+    let mut base_matrix: HashMap<String, (String, Vec<String>)> = HashMap::new();
+    let mut pending_inputs: Vec<(usize, Option<InputsSpec>, Option<(String, String)>, Option<usize>)> = Vec::new();
+
+    for (si, raw) in file.stages.iter().enumerate() {
+        let raw_id = raw.get("id").and_then(|v| v.as_str()).map(str::to_string);
+        let line = raw_id.as_deref().and_then(|id| locate_stage(&text, id));
+        let label = raw_id.clone().unwrap_or_else(|| format!("#{si}"));
+        let entry: StageEntry = match serde_path_to_error::deserialize(raw.clone()) {
+            Ok(e) => e,
+            Err(e) => {
+                let inner = e.inner().to_string();
+                let (key, l) = if inner.starts_with("unknown field") {
+                    let f = inner.split('`').nth(1).unwrap_or("").to_string();
+                    let l = line.and_then(|ln| locate(&text, &[&f], ln)).or(line);
+                    (f, l)
+                } else {
+                    (e.path().to_string(), line)
+                };
+                diags.push(path, l, format!("stages[{label}].{key}"), inner, "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix");
+                continue;
+            }
+        };
+        let kind = match kinds.get(entry.kind.as_str()) {
+            Some(k) => *k,
+            None => {
+                let l = line.and_then(|ln| locate(&text, &["kind"], ln));
+                diags.push(path, l, format!("stages[{}].kind", entry.id), format!("unknown stage kind `{}`", entry.kind), format!("known kinds: {}", kinds.keys().cloned().collect::<Vec<_>>().join(", ")));
+                continue;
+            }
+        };
+        if let Some(prev) = seen_base.insert(entry.id.clone(), si) {
+            diags.push(path, line, format!("stages[{}].id", entry.id), format!("duplicate stage id (also entry #{prev})"), "give every stage a unique id");
+            continue;
+        }
+        for p in entry.profiles.keys() {
+            if !PROFILES.contains(&p.as_str()) {
+                let l = line.and_then(|ln| locate(&text, &["profiles", p], ln));
+                diags.push(path, l, format!("stages[{}].profiles.{p}", entry.id), format!("unknown profile `{p}`"), format!("allowed: {}", PROFILES.join(", ")));
+            }
+        }
+        // Layers of params.
+        let mut layers: Vec<Layer> = Vec::new();
+        let files: Vec<String> = match &entry.params_file {
+            None => vec![],
+            Some(OneOrMany::One(s)) => vec![s.clone()],
+            Some(OneOrMany::Many(v)) => v.clone(),
+        };
+        let mut file_ok = true;
+        for spec in files {
+            let (sub, rel) = match spec.split_once('=') {
+                Some((k, p)) => (Some(k.trim().to_string()), p.trim().to_string()),
+                None => (None, spec.trim().to_string()),
+            };
+            let fpath = root.join(&rel);
+            let ftext = match std::fs::read_to_string(&fpath) {
+                Ok(t) => t,
+                Err(e) => {
+                    let l = line.and_then(|ln| locate(&text, &["params_file"], ln));
+                    diags.push(path, l, format!("stages[{}].params_file", entry.id), format!("cannot read `{}`: {e}", fpath.display()), "paths are relative to the directory of pipeline.yaml");
+                    file_ok = false;
+                    continue;
+                }
+            };
+            let mut fv: Yaml = match serde_yaml::from_str(&ftext) {
+                Ok(v) => v,
+                Err(e) => {
+                    diags.push(&fpath, e.location().map(|l| l.line()), "", format!("YAML syntax error: {e}"), "fix the YAML syntax");
+                    file_ok = false;
+                    continue;
+                }
+            };
+            if matches!(fv, Yaml::Null) {
+                fv = Yaml::Mapping(Mapping::new());
+            }
+            let Yaml::Mapping(mut fm) = fv else {
+                diags.push(&fpath, Some(1), "", "a stage file must be a mapping of parameters", "write `key: value` lines");
+                file_ok = false;
+                continue;
+            };
+            let fprof = fm.remove(Yaml::String("profiles".into()));
+            let prefix: Vec<String> = sub.iter().cloned().collect();
+            let wrap = |m: Yaml| -> Yaml {
+                match &sub {
+                    Some(k) => {
+                        let mut outer = Mapping::new();
+                        outer.insert(Yaml::String(k.clone()), m);
+                        Yaml::Mapping(outer)
+                    }
+                    None => m,
+                }
+            };
+            layers.push(Layer { file: fpath.clone(), text: Some(ftext.clone()), prefix: prefix.clone(), anchor: 1, value: wrap(Yaml::Mapping(fm)) });
+            if let Some(fp) = fprof {
+                let Yaml::Mapping(pm) = fp else {
+                    diags.push(&fpath, locate(&ftext, &["profiles"], 1), "profiles", "must be a mapping `quick: {..}` / `paper: {..}`", "");
+                    continue;
+                };
+                for (k, _) in pm.iter() {
+                    let ks = yaml_scalar_string(k);
+                    if !PROFILES.contains(&ks.as_str()) {
+                        diags.push(&fpath, locate(&ftext, &["profiles", &ks], 1), format!("profiles.{ks}"), format!("unknown profile `{ks}`"), format!("allowed: {}", PROFILES.join(", ")));
+                    }
+                }
+                if let Some(over) = pm.get(Yaml::String(profile.into())) {
+                    let anchor = locate(&ftext, &["profiles", profile], 1).unwrap_or(1);
+                    layers.push(Layer { file: fpath.clone(), text: Some(ftext.clone()), prefix: prefix.clone(), anchor, value: wrap(over.clone()) });
+                }
+            }
+        }
+        if !file_ok {
+            continue;
+        }
+        if let Some(p) = &entry.params {
+            let anchor = line.and_then(|ln| locate(&text, &["params"], ln)).unwrap_or(1);
+            layers.push(Layer { file: path.to_path_buf(), text: Some(text.clone()), prefix: vec![], anchor, value: Yaml::Mapping(p.clone()) });
+        }
+        if let Some(p) = entry.profiles.get(profile) {
+            let anchor = line.and_then(|ln| locate(&text, &["profiles", profile], ln)).unwrap_or(1);
+            layers.push(Layer { file: path.to_path_buf(), text: Some(text.clone()), prefix: vec![], anchor, value: Yaml::Mapping(p.clone()) });
+        }
+        // Matrix expansion.
+        let members: Vec<(String, Option<(String, String, Yaml)>)> = match &entry.matrix {
+            None => vec![(entry.id.clone(), None)],
+            Some(m) if m.len() == 1 => {
+                let (k, vals) = m.iter().next().unwrap();
+                if vals.is_empty() {
+                    let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
+                    diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), "empty value list", "give at least one value");
+                    continue;
+                }
+                base_matrix.insert(entry.id.clone(), (k.clone(), vals.iter().map(yaml_scalar_string).collect()));
+                vals.iter().map(|v| {
+                    let vs = yaml_scalar_string(v);
+                    (format!("{}-{}{}", entry.id, k, vs), Some((k.clone(), vs, v.clone())))
+                }).collect()
+            }
+            Some(_) => {
+                let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
+                diags.push(path, l, format!("stages[{}].matrix", entry.id), "a matrix takes exactly one key", "sweep one parameter per stage; chain stages for more");
+                continue;
+            }
+        };
+        for (mid, mval) in members {
+            let mut merged = Yaml::Mapping(Mapping::new());
+            for layer in &layers {
+                merge(&mut merged, &layer.value);
+            }
+            let mut mlayers: Vec<(PathBuf, Option<String>, Vec<String>, usize, Yaml)> =
+                layers.iter().map(|l| (l.file.clone(), l.text.clone(), l.prefix.clone(), l.anchor, l.value.clone())).collect();
+            if let Some((k, _, v)) = &mval {
+                set_path(&mut merged, k, v.clone());
+                let mut m = Yaml::Mapping(Mapping::new());
+                set_path(&mut m, k, v.clone());
+                let anchor = line.and_then(|ln| locate(&text, &["matrix"], ln)).unwrap_or(1);
+                mlayers.push((path.to_path_buf(), Some(text.clone()), vec![], anchor, m));
+            }
+            for s in sets.iter().filter(|s| s.stage == mid || s.stage == entry.id) {
+                set_path(&mut merged, &s.key, s.value.clone());
+                let mut m = Yaml::Mapping(Mapping::new());
+                set_path(&mut m, &s.key, s.value.clone());
+                mlayers.push((PathBuf::from("<command line>"), None, vec![], 0, m));
+            }
+            let json = match to_json(&merged) {
+                Ok(j) => j,
+                Err(e) => {
+                    diags.push(path, line, format!("stages[{mid}].params"), format!("params cannot be read: {e}"), "keys must be strings");
+                    continue;
+                }
+            };
+            // A matrix value is set as a parameter when the kind has that parameter;
+            // otherwise it only names and pairs the members.
+            let mut checked = (kind.params)(&json);
+            if let (Err(problems), Some((k, _, _))) = (&checked, &mval) {
+                if problems.len() == 1 && problems[0].key == *k && problems[0].message.starts_with("unknown field") {
+                    let mut m2 = merged.clone();
+                    if let Yaml::Mapping(m) = &mut m2 {
+                        m.remove(Yaml::String(k.clone()));
+                    }
+                    if let Ok(j2) = to_json(&m2) {
+                        checked = (kind.params)(&j2);
+                    }
+                }
+            }
+            let params = match checked {
+                Ok(p) => canonical(p),
+                Err(problems) => {
+                    for pr in problems {
+                        // Attribute the problem to the last layer that sets the key.
+                        let parts: Vec<&str> = pr.key.split('.').filter(|s| !s.is_empty()).collect();
+                        let mut file = path.to_path_buf();
+                        let mut l = line;
+                        for (f, t, prefix, anchor, v) in mlayers.iter().rev() {
+                            if parts.is_empty() || has_path(v, &parts) {
+                                file = f.clone();
+                                l = t.as_deref().and_then(|t| {
+                                    let rel: Vec<&str> = parts.iter().skip(prefix.len()).cloned().collect();
+                                    if rel.is_empty() { Some(*anchor) } else { locate(t, &rel, *anchor) }
+                                });
+                                break;
+                            }
+                        }
+                        let help = if pr.allowed.is_empty() { format!("see the `{}` kind's parameters in docs/pipeline.md", kind.name) } else { pr.allowed.clone() };
+                        diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), pr.message, help);
+                    }
+                    continue;
+                }
+            };
+            let idx = stages.len();
+            stages.push(Stage {
+                id: mid.clone(),
+                base_id: entry.id.clone(),
+                kind: kind.name.to_string(),
+                version: kind.version,
+                caption: entry.caption.clone(),
+                params,
+                inputs: vec![],
+                line,
+            });
+            pending_inputs.push((idx, None, mval.as_ref().map(|(k, vs, _)| (k.clone(), vs.clone())), line));
+        }
+        // Attach the raw inputs spec to the members we just pushed.
+        let n_members = match &entry.matrix { Some(m) => m.values().next().map_or(0, |v| v.len()), None => 1 };
+        let start = pending_inputs.len().saturating_sub(n_members);
+        for p in pending_inputs[start..].iter_mut() {
+            p.1 = entry.inputs.as_ref().map(|i| match i {
+                InputsSpec::List(v) => InputsSpec::List(v.clone()),
+                InputsSpec::Map(m) => InputsSpec::Map(m.iter().map(|(k, v)| (k.clone(), match v {
+                    OneOrMany::One(s) => OneOrMany::One(s.clone()),
+                    OneOrMany::Many(v) => OneOrMany::Many(v.clone()),
+                })).collect()),
+            });
+        }
+    }
+    // Unknown stages named by --set.
+    for s in sets {
+        if !stages.iter().any(|st| st.id == s.stage || st.base_id == s.stage) && !seen_base.contains_key(&s.stage) {
+            diags.push(Path::new("<command line>"), None, format!("--set {}.{}", s.stage, s.key), format!("no stage `{}`", s.stage), "use an id from `granrepro list`");
+        }
+    }
+    // Resolve inputs.
+    let ids: HashMap<String, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+    for (idx, spec, mval, line) in pending_inputs {
+        let Some(spec) = spec else { continue };
+        let pairs: Vec<(String, Vec<String>)> = match spec {
+            InputsSpec::List(v) => v.into_iter().map(|id| (id.clone(), vec![id])).collect(),
+            InputsSpec::Map(m) => m.into_iter().map(|(k, v)| (k, match v { OneOrMany::One(s) => vec![s], OneOrMany::Many(v) => v })).collect(),
+        };
+        let mut resolved = Vec::new();
+        for (role, refs) in pairs {
+            let mut out = Vec::new();
+            for r in refs {
+                if ids.contains_key(&r) {
+                    out.push(r);
+                    continue;
+                }
+                let members: Vec<&Stage> = stages.iter().filter(|s| s.base_id == r).collect();
+                if members.is_empty() {
+                    let l = line.and_then(|ln| locate(&text, &["inputs"], ln));
+                    let sid = stages[idx].id.clone();
+                    diags.push(path, l, format!("stages[{sid}].inputs"), format!("missing input: no stage `{r}`"), "name an existing stage id (or a matrix base id)");
+                    continue;
+                }
+                // Pair matrix members on the same key and value; otherwise fan in all.
+                match (&mval, base_matrix.get(&r)) {
+                    (Some((k, v)), Some((uk, _))) if k == uk => {
+                        let m = format!("{r}-{k}{v}");
+                        if ids.contains_key(&m) {
+                            out.push(m);
+                        } else {
+                            let sid = stages[idx].id.clone();
+                            diags.push(path, line, format!("stages[{sid}].inputs"), format!("missing input: `{r}` has no member for {k} = {v}"), format!("add {v} to the matrix of `{r}`"));
+                        }
+                    }
+                    _ => out.extend(members.iter().map(|s| s.id.clone())),
+                }
+            }
+            resolved.push((role, out));
+        }
+        stages[idx].inputs = resolved;
+    }
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    // Topological order; report a cycle by name.
+    match super::dag::topo_order(&stages) {
+        Ok(order) => {
+            let stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
+            let index = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+            Ok(Pipeline { path: path.to_path_buf(), root, profile: profile.to_string(), stages, index, kinds })
+        }
+        Err(cycle) => {
+            let l = locate_stage(&text, stages.iter().find(|s| s.id == cycle[0]).map(|s| s.base_id.as_str()).unwrap_or(""));
+            diags.push(path, l, "stages", format!("cycle: {}", cycle.join(" -> ")), "remove one of these inputs so the stages form a DAG");
+            Err(diags)
+        }
+    }
+}

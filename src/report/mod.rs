@@ -1,0 +1,3 @@
+//! Reports: SVG charts and the HTML index.
+pub mod html;
+pub mod plot;

@@ -1,0 +1,2 @@
+//! Sample generation: particle size distributions.
+pub mod psd;

@@ -1,0 +1,67 @@
+//! Golden numbers: each implemented stage's quick-profile scalars and claim checks,
+//! rounded to their stable digits, snapshot-tested under `golden/` (one snapshot per
+//! stage). They come from real runs of the real pipeline.yaml; when a snapshot changes,
+//! the change must be explained in the commit that accepts it.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use granrepro::pipeline::{Project, RunOptions, load, run::run};
+
+/// Stages whose numbers are pinned.
+const GOLDEN: &[&str] = &["psd-col", "psd-pile", "fig4-01b", "tab4-01", "tab4-02", "tab4-03", "laws"];
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()));
+        } else {
+            std::fs::copy(&p, to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// Round to `sig` significant digits, as text (stable across platforms).
+fn round(v: f64, sig: usize) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    format!("{:.*e}", sig - 1, v)
+}
+
+#[test]
+fn golden_numbers_quick_profile() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::copy(root.join("pipeline.yaml"), tmp.path().join("pipeline.yaml")).unwrap();
+    copy_dir(&root.join("stages"), &tmp.path().join("stages"));
+    let p = load(&tmp.path().join("pipeline.yaml"), "quick", &[]).expect("the shipped pipeline.yaml is valid");
+    let proj = Project::new(tmp.path());
+    let targets: Vec<String> = GOLDEN.iter().map(|s| s.to_string()).collect();
+    let s = run(&p, &proj, &RunOptions { targets, jobs: 2, quiet: true, ..Default::default() }).unwrap();
+    assert!(!s.failed(), "{:?}", s.stages);
+    for id in GOLDEN {
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("reports/quick").join(format!("{id}.json"))).unwrap()).unwrap();
+        let scalars: BTreeMap<String, String> = v["scalars"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), round(x.as_f64().unwrap_or(f64::NAN), 6))).collect();
+        let claims: Vec<BTreeMap<String, String>> = v["claims"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| {
+                let mut m = BTreeMap::new();
+                m.insert("id".into(), c["id"].as_str().unwrap().to_string());
+                m.insert("paper".into(), round(c["paper"].as_f64().unwrap_or(f64::NAN), 6));
+                m.insert("ours".into(), round(c["ours"].as_f64().unwrap_or(f64::NAN), 6));
+                m.insert("pass".into(), c["pass"].to_string());
+                m
+            })
+            .collect();
+        let snap = serde_json::json!({ "stage": id, "profile": "quick", "scalars": scalars, "claims": claims });
+        insta::with_settings!({ snapshot_path => root.join("golden"), prepend_module_to_snapshot => false, omit_expression => true }, {
+            insta::assert_yaml_snapshot!(*id, snap);
+        });
+    }
+}
