@@ -47,6 +47,15 @@ pub enum DagFormat {
     Mermaid,
 }
 
+/// Benchmarked engines.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+pub enum BenchEngine {
+    /// ~3000-grain a = 1 DEM column, table 4.2 parameters.
+    Dem,
+    /// 40,000-point a = 1 MPM column, 16 PPC, 2 mm cells, Mohr–Coulomb.
+    Mpm,
+}
+
 /// Subcommands.
 #[derive(Subcommand, Debug)]
 pub enum Cmd {
@@ -76,6 +85,9 @@ pub enum Cmd {
         /// No progress bars.
         #[arg(long)]
         quiet: bool,
+        /// Print the pre-flight stability table of every planned solver stage, run nothing.
+        #[arg(long)]
+        explain: bool,
     },
     /// List stages (id, kind, inputs, caption).
     List {
@@ -85,6 +97,17 @@ pub enum Cmd {
         /// List the stage kinds this build knows instead.
         #[arg(long)]
         kinds: bool,
+    },
+    /// Print a stage's resolved parameters (all layers merged, defaults filled) as YAML.
+    Params {
+        /// Stage id.
+        id: String,
+        /// Profile.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+        /// Override a parameter: STAGE.KEY=VALUE.
+        #[arg(long = "set")]
+        sets: Vec<String>,
     },
     /// Print the stage graph.
     Dag {
@@ -100,6 +123,26 @@ pub enum Cmd {
         /// Override a parameter: STAGE.KEY=VALUE.
         #[arg(long = "set")]
         sets: Vec<String>,
+    },
+    /// Run one ad-hoc DEM column scene (psd + column + run sections) outside the pipeline.
+    Simulate {
+        /// Scene file (YAML; see docs/pipeline.md).
+        scene: PathBuf,
+        /// Output directory (tables, figures, VTK, its own cache).
+        #[arg(long)]
+        out: PathBuf,
+        /// No progress bars.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Benchmarks (not tests): particle- or point-steps per second, one JSON line per case.
+    Bench {
+        /// Which engine.
+        #[arg(value_enum)]
+        engine: BenchEngine,
+        /// Timed steps.
+        #[arg(long)]
+        steps: Option<u64>,
     },
     /// Remove the cache (and with --reports, the reports).
     Clean {
@@ -146,7 +189,7 @@ pub fn main() -> i32 {
 pub fn run_cli(cli: Cli) -> i32 {
     let proj = project_of(&cli.pipeline);
     match cli.cmd {
-        Cmd::Run { stages, only, profile, force, dry_run, jobs, sets, quiet } => {
+        Cmd::Run { stages, only, profile, force, dry_run, jobs, sets, quiet, explain } => {
             let sets = match parse_sets(&sets) {
                 Ok(s) => s,
                 Err(c) => return c,
@@ -158,6 +201,22 @@ pub fn run_cli(cli: Cli) -> i32 {
                     return 2;
                 }
             };
+            if explain {
+                let ids = match crate::pipeline::dag::closure(&p, if only.is_empty() { &stages } else { &only }) {
+                    Ok(ids) => ids,
+                    Err(u) => {
+                        eprintln!("error: unknown stage(s): {}", u.join(", "));
+                        return 2;
+                    }
+                };
+                for id in ids {
+                    let st = p.get(&id).unwrap();
+                    if let Some(f) = p.kinds[st.kind.as_str()].explain {
+                        println!("== {id} ({}) ==\n{}", st.kind, f(&st.params));
+                    }
+                }
+                return 0;
+            }
             let opts = RunOptions { targets: stages, only, force, dry_run, jobs, quiet };
             match crate::pipeline::run::run(&p, &proj, &opts) {
                 Err(RunError::BadInput(m)) => {
@@ -241,6 +300,28 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
+        Cmd::Params { id, profile, sets } => {
+            let sets = match parse_sets(&sets) {
+                Ok(s) => s,
+                Err(c) => return c,
+            };
+            match load(&cli.pipeline, profile.name(), &sets) {
+                Ok(p) => match p.get(&id) {
+                    Some(s) => {
+                        print!("# {} ({} v{}), profile {}\n{}", s.id, s.kind, s.version, p.profile, serde_yaml::to_string(&s.params).unwrap_or_default());
+                        0
+                    }
+                    None => {
+                        eprintln!("error: no stage `{id}` (see `granrepro list`)");
+                        2
+                    }
+                },
+                Err(d) => {
+                    eprintln!("{d}");
+                    2
+                }
+            }
+        }
         Cmd::Dag { format } => match load(&cli.pipeline, "quick", &[]) {
             Ok(p) => {
                 print!("{}", match format {
@@ -276,6 +357,8 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
+        Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
+        Cmd::Bench { engine, steps } => bench(engine, steps),
         Cmd::Clean { reports } => {
             let mut code = 0;
             for dir in [Some(proj.root.join(".granrepro")), reports.then(|| proj.reports.clone())].into_iter().flatten() {
@@ -289,6 +372,56 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
             code
+        }
+    }
+}
+
+fn bench(engine: BenchEngine, steps: Option<u64>) -> i32 {
+    let all = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let mut threads = vec![1];
+    if all > 1 {
+        threads.push(all);
+    }
+    match engine {
+        BenchEngine::Dem => {
+            use crate::dem::bench::{BenchCase, run};
+            let steps = steps.unwrap_or(20_000);
+            for case in [BenchCase::NoRollingNoLedger, BenchCase::Full] {
+                for &t in &threads {
+                    match run(case, t, steps) {
+                        Ok(r) => println!(
+                            "{}",
+                            serde_json::json!({
+                                "bench": "dem-column",
+                                "case": match case { BenchCase::Full => "rolling+ledger", BenchCase::NoRollingNoLedger => "no-rolling-no-ledger" },
+                                "threads": r.threads, "particles": r.grains, "steps": r.steps,
+                                "wall_s": r.wall_s, "particle_steps_per_s": r.particle_steps_per_s,
+                            })
+                        ),
+                        Err(e) => {
+                            eprintln!("error: bench dem: {e}");
+                            return 1;
+                        }
+                    }
+                }
+            }
+            0
+        }
+        BenchEngine::Mpm => {
+            let steps = steps.unwrap_or(200);
+            for &t in &threads {
+                let r = crate::mpm::bench::run(t, steps);
+                println!(
+                    "{}",
+                    serde_json::json!({
+                        "bench": "mpm-column", "case": "a1-16ppc-2mm-mc",
+                        "threads": r.threads, "points": r.points, "steps": r.steps,
+                        "wall_s": r.wall_s, "point_steps_per_s": r.point_steps_per_s,
+                        "p2g_s": r.p2g_s(), "stress_s": r.stress_s(), "g2p_s": r.g2p_s(),
+                    })
+                );
+            }
+            0
         }
     }
 }

@@ -48,12 +48,12 @@ fn missing_input_unknown_kind_and_duplicate_id_all_reported() {
 #[test]
 fn unphysical_values_are_refused_with_the_allowed_range() {
     let t = TempProject::new(
-        "version: 1\nstages:\n  - id: psd\n    kind: psd\n    params: { d_min_mm: -1.0, d_max_mm: 1.38 }\n  - id: t\n    kind: material-table\n    params:\n      table: tab4-02\n      dem: { restitution: 1.5 }\n",
+        "version: 1\nstages:\n  - id: psd\n    kind: psd\n    params: { d_min_mm: -1.0, d_max_mm: 1.38 }\n  - id: t\n    kind: material-table\n    params:\n      table: tab4-02\n      dem: { grain: { restitution: 1.5 } }\n",
     );
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("params.d_min_mm") && err.contains("> 0"), "{err}");
-    assert!(err.contains("dem.restitution") && err.contains("(0, 1]"), "{err}");
+    assert!(err.contains("dem.grain.restitution") && err.contains("(0, 1]"), "{err}");
 }
 
 #[test]

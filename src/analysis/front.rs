@@ -211,3 +211,31 @@ mod tests {
         assert_eq!(main_mass(&b, Link::Contact { gap: 0.0 }), vec![2]);
     }
 }
+
+/// Run-out duration t_f (figures.md D10): the first time after which the front stays
+/// within `tol` of its final value, t_f = min{t : L(t') ≥ L_f − tol for all t' ≥ t}.
+/// `t` and `l` are the sampled times and front positions (same length, time order).
+pub fn stop_time(t: &[f64], l: &[f64], tol: f64) -> f64 {
+    assert_eq!(t.len(), l.len(), "stop_time: t and l differ in length");
+    let Some(&lf) = l.last() else { return f64::NAN };
+    let mut tf = t[t.len() - 1];
+    for k in (0..l.len()).rev() {
+        if l[k] >= lf - tol {
+            tf = t[k];
+        } else {
+            break;
+        }
+    }
+    tf
+}
+
+#[cfg(test)]
+mod stop_tests {
+    #[test]
+    fn stop_time_is_when_the_front_settles() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0];
+        let l = [0.0, 0.5, 0.9, 0.99, 1.0, 1.0];
+        assert_eq!(super::stop_time(&t, &l, 0.05), 3.0);
+        assert_eq!(super::stop_time(&t, &l, 0.2), 2.0);
+    }
+}

@@ -147,11 +147,29 @@ fn yaml_scalar_string(v: &Yaml) -> String {
 
 /// Deep-merge `over` into `base` (mappings merge key by key; anything else replaces).
 fn merge(base: &mut Yaml, over: &Yaml) {
+    merge_at(base, over, 0)
+}
+
+fn merge_at(base: &mut Yaml, over: &Yaml, depth: usize) {
     match (base, over) {
+        // Below the top level, two single-key mappings with different keys whose values
+        // are mappings are variants of an enum (`step: {fixed: {dt}}` overridden by
+        // `step: {cfl: {..}}`): the override replaces instead of merging into an
+        // ambiguous two-variant mapping.
+        (Yaml::Mapping(b), Yaml::Mapping(o))
+            if depth > 0
+                && b.len() == 1
+                && o.len() == 1
+                && b.keys().next() != o.keys().next()
+                && b.values().next().is_some_and(|v| v.is_mapping())
+                && o.values().next().is_some_and(|v| v.is_mapping()) =>
+        {
+            *b = o.clone();
+        }
         (Yaml::Mapping(b), Yaml::Mapping(o)) => {
             for (k, v) in o {
                 match b.get_mut(k) {
-                    Some(slot) => merge(slot, v),
+                    Some(slot) => merge_at(slot, v, depth + 1),
                     None => {
                         b.insert(k.clone(), v.clone());
                     }
@@ -559,5 +577,25 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
             diags.push(path, l, "stages", format!("cycle: {}", cycle.join(" -> ")), "remove one of these inputs so the stages form a DAG");
             Err(diags)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn y(s: &str) -> Yaml {
+        serde_yaml::from_str(s).unwrap()
+    }
+
+    #[test]
+    fn merge_is_deep_and_switches_enum_variants() {
+        let mut base = y("mpm: {cell_size: 2, step: {fixed: {dt: 1}}, material: {e: 1, nu: 2}}");
+        merge(&mut base, &y("mpm: {step: {cfl: {courant: 0.5}}, material: {nu: 3}}"));
+        assert_eq!(base, y("mpm: {cell_size: 2, step: {cfl: {courant: 0.5}}, material: {e: 1, nu: 3}}"));
+        // Top-level sections of different files never replace each other.
+        let mut top = y("mpm: {a: {b: 1}}");
+        merge(&mut top, &y("run: {c: {d: 2}}"));
+        assert_eq!(top, y("mpm: {a: {b: 1}}\nrun: {c: {d: 2}}"));
     }
 }

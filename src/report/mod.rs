@@ -1,3 +1,4 @@
 //! Reports: SVG charts and the HTML index.
 pub mod html;
 pub mod plot;
+pub mod snapshot;

@@ -235,4 +235,5 @@ pub const KIND: Kind = Kind {
     about: "log-log least-squares power law (1 or 2 regimes) with standard errors, vs quoted exponents",
     params: typed::<FitParams>,
     run,
+    explain: None,
 };

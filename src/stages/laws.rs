@@ -107,4 +107,5 @@ pub const KIND: Kind = Kind {
     about: "the chapter's stated scaling laws (eq 4.6, 4.7) and experimental ones, for overlays",
     params: typed::<LawParams>,
     run,
+    explain: None,
 };

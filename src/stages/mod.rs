@@ -11,8 +11,10 @@ use serde_json::Value;
 use crate::pipeline::context::{Output, StageCtx};
 use crate::validate::Issue;
 
+pub mod dem_stages;
 pub mod fit_stage;
 pub mod laws;
+pub mod mpm_stages;
 pub mod psd;
 pub mod tables;
 
@@ -45,6 +47,8 @@ pub struct Kind {
     pub params: ParamsFn,
     /// Stage body.
     pub run: RunFn,
+    /// Pre-flight stability table for `run --explain` (solver stages only).
+    pub explain: Option<fn(&Value) -> String>,
 }
 
 /// Parameters that validate their own values (ranges, physical sense).
@@ -101,6 +105,22 @@ impl std::fmt::Debug for Kind {
 
 /// Every stage kind this build knows, by name.
 pub fn registry() -> BTreeMap<&'static str, Kind> {
-    let kinds = [psd::KIND, psd::FIGURE_KIND, tables::KIND, fit_stage::KIND, laws::KIND];
+    let kinds = [
+        psd::KIND,
+        psd::FIGURE_KIND,
+        tables::KIND,
+        fit_stage::KIND,
+        laws::KIND,
+        dem_stages::PREP_KIND,
+        dem_stages::SNAPSHOT_KIND,
+        dem_stages::COLLAPSE_KIND,
+        dem_stages::SHEAR_KIND,
+        dem_stages::COMPRESS_KIND,
+        dem_stages::WP_KIND,
+        dem_stages::PILE_KIND,
+        mpm_stages::GEOSTATIC_KIND,
+        mpm_stages::COLLAPSE_KIND,
+        mpm_stages::WP_KIND,
+    ];
     kinds.into_iter().map(|k| (k.name, k)).collect()
 }

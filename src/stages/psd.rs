@@ -83,6 +83,7 @@ pub const KIND: Kind = Kind {
     about: "sample disk diameters from a cumulative-beta grading curve (thesis ch. 3)",
     params: typed::<PsdParams>,
     run: run_psd,
+    explain: None,
 };
 
 /// Parameters of a `psd-figure` stage.
@@ -172,4 +173,5 @@ pub const FIGURE_KIND: Kind = Kind {
     about: "fig4-01b: cumulative % finer of sampled grains vs the target grading",
     params: typed::<PsdFigureParams>,
     run: run_psd_figure,
+    explain: None,
 };

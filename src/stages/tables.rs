@@ -23,148 +23,15 @@ pub struct LiteratureMaterial {
     pub avalanche_angle_deg: [f64; 2],
     /// Wall friction angle [°] and its ± [°].
     pub wall_friction_angle_deg: [f64; 2],
+    /// Young's modulus of a glass bead [Pa] (table 4.2; sets k_n = 4ER, eq 4.3).
+    pub glass_youngs_modulus_pa: f64,
+    /// Poisson's ratio of glass (table 4.2: 0.22–0.24; unused by the linear law).
+    pub glass_poisson_ratio: f64,
 }
 
 impl Default for LiteratureMaterial {
     fn default() -> Self {
-        LiteratureMaterial { mean_diameter_mm: 1.15, repose_angle_deg: [22.0, 0.5], avalanche_angle_deg: [27.4, 0.5], wall_friction_angle_deg: [24.8, 0.2] }
-    }
-}
-
-/// The DEM contact material of the column scenes (table 4.2). All stiffnesses are per
-/// metre of out-of-plane thickness (figures.md §b.0).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(default, deny_unknown_fields)]
-pub struct DemMaterial {
-    /// Grain density [kg/m³] (UNSPEC in the chapter: glass, 2500).
-    pub density_kg_m3: f64,
-    /// Young's modulus of a glass bead [Pa] (sets k_n = 4ER, eq 4.3).
-    pub youngs_modulus_pa: f64,
-    /// Poisson's ratio (0.22–0.24; unused by the linear law).
-    pub poisson_ratio: f64,
-    /// Grain–grain normal stiffness k_n [N/m].
-    pub kn_n_per_m: f64,
-    /// Grain–grain tangential stiffness k_t [N/m].
-    pub kt_n_per_m: f64,
-    /// Grain–wall normal stiffness [N/m].
-    pub kn_wall_n_per_m: f64,
-    /// Grain–wall tangential stiffness [N/m].
-    pub kt_wall_n_per_m: f64,
-    /// Inter-particle friction coefficient μ.
-    pub friction: f64,
-    /// Wall friction coefficient.
-    pub wall_friction: f64,
-    /// Coefficient of restitution ε (eqs 4.4–4.5).
-    pub restitution: f64,
-    /// Rolling spring constant k_r [N·m/rad].
-    pub rolling_stiffness_nm_per_rad: f64,
-    /// Rolling damping c_r [N·m·s/rad].
-    pub rolling_damping_nms_per_rad: f64,
-    /// Rolling-friction coefficient μ_r (UNSPEC; caps |M_r| ≤ μ_r·r̄·f_n).
-    pub rolling_friction: f64,
-}
-
-impl Default for DemMaterial {
-    fn default() -> Self {
-        DemMaterial {
-            density_kg_m3: 2500.0,
-            youngs_modulus_pa: 70e9,
-            poisson_ratio: 0.22,
-            kn_n_per_m: 1.6e8,
-            kt_n_per_m: 1.6e8,
-            kn_wall_n_per_m: 4e8,
-            kt_wall_n_per_m: 4e8,
-            friction: 0.53,
-            wall_friction: 0.466,
-            restitution: 0.75,
-            rolling_stiffness_nm_per_rad: 1e3,
-            rolling_damping_nms_per_rad: 0.1,
-            rolling_friction: 0.1,
-        }
-    }
-}
-
-impl DemMaterial {
-    /// Checks shared by every stage that reads this material.
-    pub fn check(&self, c: &mut Checker) {
-        c.positive("density_kg_m3", self.density_kg_m3);
-        c.positive("youngs_modulus_pa", self.youngs_modulus_pa);
-        c.in_open("poisson_ratio", self.poisson_ratio, -1.0, 0.5);
-        c.positive("kn_n_per_m", self.kn_n_per_m);
-        c.non_negative("kt_n_per_m", self.kt_n_per_m);
-        c.positive("kn_wall_n_per_m", self.kn_wall_n_per_m);
-        c.non_negative("kt_wall_n_per_m", self.kt_wall_n_per_m);
-        c.in_closed("friction", self.friction, 0.0, 10.0);
-        c.in_closed("wall_friction", self.wall_friction, 0.0, 10.0);
-        c.in_open_closed("restitution", self.restitution, 0.0, 1.0);
-        c.non_negative("rolling_stiffness_nm_per_rad", self.rolling_stiffness_nm_per_rad);
-        c.non_negative("rolling_damping_nms_per_rad", self.rolling_damping_nms_per_rad);
-        c.in_closed("rolling_friction", self.rolling_friction, 0.0, 10.0);
-    }
-    /// Damping ratio from restitution, eq 4.5: γ = −ln ε / √(π² + ln² ε).
-    pub fn damping_ratio(&self) -> f64 {
-        let l = self.restitution.ln();
-        -l / (PI * PI + l * l).sqrt()
-    }
-}
-
-/// The continuum material of the MPM column scenes (table 4.3).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(default, deny_unknown_fields)]
-pub struct MpmMaterial {
-    /// Background cell size h [m].
-    pub cell_size_m: f64,
-    /// Material points per cell (a perfect square).
-    pub points_per_cell: usize,
-    /// Young's modulus E [Pa].
-    pub youngs_modulus_pa: f64,
-    /// Poisson's ratio ν.
-    pub poisson_ratio: f64,
-    /// Friction angle φ [°] (table value; the pipeline injects the DEM-measured one).
-    pub friction_angle_deg: f64,
-    /// Dilatancy angle ψ [°].
-    pub dilatancy_angle_deg: f64,
-    /// Cohesion [Pa] (absent from table 4.3: 0).
-    pub cohesion_pa: f64,
-    /// Bulk density ρ [kg/m³].
-    pub density_kg_m3: f64,
-    /// Wall and base friction coefficient.
-    pub wall_friction: f64,
-    /// Time step [s] (table 4.3: 1e-6 s).
-    pub time_step_s: f64,
-}
-
-impl Default for MpmMaterial {
-    fn default() -> Self {
-        MpmMaterial {
-            cell_size_m: 2e-3,
-            points_per_cell: 16,
-            youngs_modulus_pa: 1.98e6,
-            poisson_ratio: 0.22,
-            friction_angle_deg: 22.2,
-            dilatancy_angle_deg: 0.0,
-            cohesion_pa: 0.0,
-            density_kg_m3: 1925.0,
-            wall_friction: 0.466,
-            time_step_s: 1e-6,
-        }
-    }
-}
-
-impl MpmMaterial {
-    /// Range checks.
-    pub fn check(&self, c: &mut Checker) {
-        c.positive("cell_size_m", self.cell_size_m);
-        let r = (self.points_per_cell as f64).sqrt().round() as usize;
-        c.check(self.points_per_cell >= 1 && r * r == self.points_per_cell, "points_per_cell", self.points_per_cell, "a perfect square (1, 4, 9, 16, 25, …)");
-        c.positive("youngs_modulus_pa", self.youngs_modulus_pa);
-        c.in_open("poisson_ratio", self.poisson_ratio, -1.0, 0.5);
-        c.in_open("friction_angle_deg", self.friction_angle_deg, 0.0, 90.0);
-        c.in_closed("dilatancy_angle_deg", self.dilatancy_angle_deg, 0.0, self.friction_angle_deg.max(0.0));
-        c.non_negative("cohesion_pa", self.cohesion_pa);
-        c.positive("density_kg_m3", self.density_kg_m3);
-        c.in_closed("wall_friction", self.wall_friction, 0.0, 10.0);
-        c.positive("time_step_s", self.time_step_s);
+        LiteratureMaterial { mean_diameter_mm: 1.15, repose_angle_deg: [22.0, 0.5], avalanche_angle_deg: [27.4, 0.5], wall_friction_angle_deg: [24.8, 0.2], glass_youngs_modulus_pa: 70e9, glass_poisson_ratio: 0.22 }
     }
 }
 
@@ -191,19 +58,23 @@ pub struct TableParams {
     pub table: Which,
     /// Literature constants (tab4-01).
     pub literature: LiteratureMaterial,
-    /// DEM material (tab4-02, and the wall-friction check of tab4-01).
-    pub dem: DemMaterial,
-    /// MPM material (tab4-03).
-    pub mpm: MpmMaterial,
+    /// DEM scene parameters (tab4-02, wall-friction check of tab4-01): the solver's own
+    /// schema, from stages/dem-column.yaml.
+    pub dem: crate::dem::DemParams,
+    /// MPM scene parameters (tab4-03): the solver's own schema, from stages/mpm-column.yaml.
+    pub mpm: crate::mpm::MpmParams,
 }
 
 impl Validate for TableParams {
     fn validate(&self) -> Vec<Issue> {
-        let mut c = Checker::new("dem");
-        self.dem.check(&mut c);
-        let mut m = Checker::new("mpm");
-        self.mpm.check(&mut m);
-        c.extend(m);
+        let mut c = Checker::new("");
+        for i in self.dem.validate() {
+            c.issues.push(Issue { key: format!("dem.{}", i.key), ..i });
+        }
+        c.positive("literature.glass_youngs_modulus_pa", self.literature.glass_youngs_modulus_pa);
+        for i in self.mpm.validate() {
+            c.issues.push(Issue { key: format!("mpm.{}", i.key), ..i });
+        }
         c.issues
     }
 }
@@ -260,8 +131,8 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
             rows.add("Repose angle", format!("{} ± {}", l.repose_angle_deg[0], l.repose_angle_deg[1]), "°", "Lajeunesse et al. (2004)");
             rows.add("Avalanche angle", format!("{} ± {}", l.avalanche_angle_deg[0], l.avalanche_angle_deg[1]), "°", "Lajeunesse et al. (2004)");
             rows.add("Wall friction angle", format!("{} ± {}", l.wall_friction_angle_deg[0], l.wall_friction_angle_deg[1]), "°", "Lajeunesse et al. (2004)");
-            let wall_deg = p.dem.wall_friction.atan().to_degrees();
-            rows.add("check: atan(DEM wall friction)", format!("{wall_deg:.2}"), "°", "stages/dem-material.yaml");
+            let wall_deg = p.dem.wall.friction.atan().to_degrees();
+            rows.add("check: atan(DEM wall friction)", format!("{wall_deg:.2}"), "°", "stages/dem-column.yaml");
             out.scalar("dem_wall_friction_angle_deg", wall_deg);
             out.claims.push(Claim::abs("wall-friction-angle", "DEM wall friction 0.466 ↔ wall friction angle 24.8 ± 0.2° (atan 0.466 = 24.99°)", l.wall_friction_angle_deg[0], wall_deg, l.wall_friction_angle_deg[1]));
             if let Some(psd) = &psd {
@@ -277,57 +148,64 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
         Which::Tab402 => {
             let m = &p.dem;
-            rows.add("Young's modulus of glass bead", g(m.youngs_modulus_pa), "N/m²", "table 4.2");
-            rows.add("Poisson's ratio", g(m.poisson_ratio), "–", "table 4.2 (0.22–0.24; unused by the linear law)");
+            let l = &p.literature;
+            rows.add("Young's modulus of glass bead", g(l.glass_youngs_modulus_pa), "N/m²", "table 4.2 (enters through k_n = 4ER)");
+            rows.add("Poisson's ratio", g(l.glass_poisson_ratio), "–", "table 4.2 (0.22–0.24; unused by the linear law)");
             if let Some(psd) = &psd {
                 rows.add("Diameter of glass beads", format!("{} to {}", psd.d_min_mm, psd.d_max_mm), "mm", "stages/psd-col.yaml");
             }
-            rows.add("Normal stiffness of grains k_n", g(m.kn_n_per_m), "N/m", "table 4.2");
-            rows.add("Shear stiffness of grains k_t", g(m.kt_n_per_m), "N/m", "table 4.2");
-            rows.add("Normal stiffness of wall", g(m.kn_wall_n_per_m), "N/m", "table 4.2");
-            rows.add("Shear stiffness of wall", g(m.kt_wall_n_per_m), "N/m", "table 4.2");
-            rows.add("Inter-particle friction coefficient μ", g(m.friction), "–", "table 4.2");
-            rows.add("Wall friction coefficient", g(m.wall_friction), "–", "table 4.2");
-            rows.add("Coefficient of restitution ε", g(m.restitution), "–", "table 4.2");
-            rows.add("Rolling spring constant", g(m.rolling_stiffness_nm_per_rad), "N·m/rad", "table 4.2");
-            rows.add("Coefficient of rolling damping", g(m.rolling_damping_nms_per_rad), "N·m·s/rad", "table 4.2");
-            rows.add("Rolling friction μ_r (not in the chapter)", g(m.rolling_friction), "–", "granrepro choice (stages/dem-material.yaml)");
-            rows.add("Grain density (not in the chapter)", g(m.density_kg_m3), "kg/m³", "granrepro choice: glass");
+            rows.add("Normal stiffness of grains k_n", g(m.grain.kn), "N/m", "table 4.2");
+            rows.add("Shear stiffness of grains k_t", g(m.grain.kt), "N/m", "table 4.2");
+            rows.add("Normal stiffness of wall", g(m.wall.kn), "N/m", "table 4.2");
+            rows.add("Shear stiffness of wall", g(m.wall.kt), "N/m", "table 4.2");
+            rows.add("Inter-particle friction coefficient μ", g(m.grain.friction), "–", "table 4.2");
+            rows.add("Wall friction coefficient", g(m.wall.friction), "–", "table 4.2");
+            rows.add("Coefficient of restitution ε", g(m.grain.restitution), "–", "table 4.2");
+            rows.add("Rolling spring constant", g(m.rolling.kr), "N·m/rad", "table 4.2");
+            rows.add("Coefficient of rolling damping", g(m.rolling.cr), "N·m·s/rad", "table 4.2 (integrated implicitly)");
+            rows.add("Rolling friction μ_r (not in the chapter)", g(m.rolling.mu_r), "–", "granrepro choice (stages/dem-column.yaml)");
+            rows.add("Grain density (not in the chapter)", g(m.density), "kg/m³", "granrepro choice: glass");
+            rows.add("Time step (not in the chapter)", g(m.dt), "s", "granrepro choice (figures.md c.1: t_c/48)");
             // Derived checks (figures.md tab4-02).
             let r_mean = psd.as_ref().map(|p| 0.25 * (p.d_min_mm + p.d_max_mm) * 1e-3).unwrap_or(0.575e-3);
-            let kn_4er = 4.0 * m.youngs_modulus_pa * r_mean;
-            let gamma = m.damping_ratio();
-            let mass = m.density_kg_m3 * PI * r_mean * r_mean; // per metre of thickness
-            let cn = 2.0 * gamma * (0.5 * mass * m.kn_n_per_m).sqrt();
+            let kn_4er = 4.0 * l.glass_youngs_modulus_pa * r_mean;
+            let lne = m.grain.restitution.ln();
+            let gamma = -lne / (PI * PI + lne * lne).sqrt();
+            let mass = m.density * PI * r_mean * r_mean; // per metre of thickness
+            let cn = 2.0 * gamma * (0.5 * mass * m.grain.kn).sqrt();
             rows.add("derived: 4ER (eq 4.3, mean radius)", g(kn_4er), "N/m", "eq 4.3");
             rows.add("derived: damping ratio γ (eq 4.5)", format!("{gamma:.5}"), "–", "eq 4.5");
             rows.add("derived: C_n mean–mean pair (eq 4.4)", format!("{cn:.1}"), "N·s/m", "eq 4.4, 2D masses");
-            out.scalar("kn_4er_n_per_m", kn_4er).scalar("damping_ratio", gamma).scalar("cn_mean_pair_ns_per_m", cn);
-            out.claims.push(Claim::rel("kn-equals-4ER", "k_n = 4ER (eq 4.3) = 1.61e8 N/m at the mean radius", m.kn_n_per_m, kn_4er, 0.01));
+            rows.add("used: damping ratio for exact ε without attraction", format!("{:.5}", m.grain.damping_ratio()), "–", "granrepro (see src/dem/params.rs)");
+            out.scalar("kn_4er_n_per_m", kn_4er).scalar("damping_ratio_eq45", gamma).scalar("damping_ratio_used", m.grain.damping_ratio()).scalar("cn_mean_pair_ns_per_m", cn);
+            out.claims.push(Claim::rel("kn-equals-4ER", "k_n = 4ER (eq 4.3) = 1.61e8 N/m at the mean radius", m.grain.kn, kn_4er, 0.01));
             out.claims.push(Claim::rel("damping-ratio", "γ = −ln ε/√(π²+ln²ε) = 0.09119 for ε = 0.75 (figures.md tab4-02)", 0.09119, gamma, 0.001));
         }
         Which::Tab403 => {
             let m = &p.mpm;
-            let spacing = m.cell_size_m / (m.points_per_cell as f64).sqrt();
+            let spacing = m.spacing();
             rows.add("Material point spacing", g(spacing * 1e3), "mm", "derived: h/√PPC");
-            rows.add("Number of material points per cell", m.points_per_cell.to_string(), "–", "table 4.3");
-            rows.add("Mesh length", g(m.cell_size_m), "m", "table 4.3");
+            rows.add("Number of material points per cell", m.ppc.to_string(), "–", "table 4.3");
+            rows.add("Mesh length", g(m.cell_size), "m", "table 4.3");
             let (e, e_src) = match ctx.input_opt("compression") {
                 Some(c) => (c.scalar("youngs_modulus_pa")?, "measured: DEM confined compression"),
-                None => (m.youngs_modulus_pa, "table 4.3"),
+                None => (m.material.young_pa, "table 4.3"),
             };
             rows.add("Young's Modulus, E", g(e), "N/m²", e_src);
-            rows.add("Poisson's ratio, ν", g(m.poisson_ratio), "–", "table 4.3 (0.22 to 0.24)");
+            rows.add("Poisson's ratio, ν", g(m.material.poisson), "–", "table 4.3 (0.22 to 0.24)");
             let (phi, phi_src) = match ctx.input_opt("shear") {
                 Some(s) => (s.scalar("friction_angle_deg")?, "measured: DEM periodic shear"),
-                None => (m.friction_angle_deg, "table 4.3"),
+                None => (m.material.friction_deg, "table 4.3"),
             };
             rows.add("Friction angle, φ", format!("{phi:.2}"), "°", phi_src);
-            rows.add("Dilatancy angle, ψ", g(m.dilatancy_angle_deg), "°", "table 4.3");
-            rows.add("Density, ρ", g(m.density_kg_m3), "kg/m³", "table 4.3");
+            rows.add("Dilatancy angle, Φ", g(m.material.dilation_deg), "°", "table 4.3");
+            rows.add("Density, ρ", g(m.material.density), "kg/m³", "table 4.3");
             rows.add("Wall friction", g(m.wall_friction), "–", "table 4.3");
-            rows.add("Time step increment", g(m.time_step_s), "s", "table 4.3");
-            rows.add("Cohesion (not in the chapter)", g(m.cohesion_pa), "Pa", "granrepro choice");
+            match m.step {
+                crate::mpm::StepRule::Fixed { dt } => rows.add("Time step increment", g(dt), "s", "table 4.3"),
+                crate::mpm::StepRule::Cfl { courant, dt_max } => rows.add("Time step increment", format!("CFL, Courant {courant} (≤ {})", g(dt_max)), "s", "profile choice (table 4.3: 1e-6 s)"),
+            }
+            rows.add("Cohesion (not in the chapter)", g(m.material.cohesion_pa), "Pa", "granrepro choice");
             out.scalar("friction_angle_deg", phi).scalar("youngs_modulus_pa", e).scalar("point_spacing_m", spacing);
             out.claims.push(Claim::abs("point-spacing", "2 mm/√16 = 0.5 mm material point spacing", 0.5e-3, spacing, 1e-9));
             if ctx.input_opt("shear").is_some() {
@@ -350,4 +228,5 @@ pub const KIND: Kind = Kind {
     about: "tables 4.1–4.3 rendered from the material files the scenes use, with derived checks",
     params: typed::<TableParams>,
     run: run_table,
+    explain: None,
 };

@@ -1,0 +1,249 @@
+//! Column-collapse driver (figures.md SC-COL, D01–D07): open the gate of a prepared column
+//! and run with a time series (t, L, H via `crate::analysis::front`, energies, ledger) and
+//! snapshots at requested times, until a stop criterion. Reports wall time per run for the
+//! work-precision sweep.
+
+use crate::analysis::front::{Body, Link, front};
+use crate::dem::energy::Ledger;
+use crate::dem::error::DemError;
+use crate::dem::params::DemParams;
+use crate::dem::prep::{Column, box_walls};
+use crate::dem::preflight::Preflight;
+use crate::dem::state::State;
+use crate::dem::timers::PhaseTimers;
+use crate::dem::world::World;
+use crate::math::Real;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Collapse run settings. Times are in units of τ_c = √(H_0/g) (D05).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CollapseParams {
+    /// Hard end [τ_c]. UNSPEC; 10 (the chapter's columns stop by ≈ 4 τ_c).
+    pub t_max: Real,
+    /// Never stop before this [τ_c].
+    pub t_min: Real,
+    /// Stop when (E_k + E_rot) < `stop_ke_ratio` · E_p(0) after `t_min`. UNSPEC: 1e-6.
+    pub stop_ke_ratio: Real,
+    /// Time-series interval [τ_c].
+    pub sample_every: Real,
+    /// Snapshot times [τ_c] (e.g. [1, 3] for figs 4.7/4.9); the final state is always kept.
+    pub snapshots: Vec<Real>,
+    /// Contact-graph gap δ_c for the main mass, in mean diameters (D01: 0.01).
+    pub link_gap: Real,
+    /// Domain end: a floor-level right wall far away keeps escaping grains [L_0 multiples].
+    /// 0 = no right wall (the floor is infinite).
+    pub right_wall_at: Real,
+}
+
+impl Default for CollapseParams {
+    fn default() -> Self {
+        Self { t_max: 10.0, t_min: 1.0, stop_ke_ratio: 1e-6, sample_every: 0.01, snapshots: vec![], link_gap: 0.01, right_wall_at: 0.0 }
+    }
+}
+
+/// One row of the time series.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Time since release [s].
+    pub t: Real,
+    /// Run-out L(t): right edge of the main mass [m] (D01).
+    pub length: Real,
+    /// Height H(t) of the main mass [m] (D03).
+    pub height: Real,
+    /// Grains in the main mass.
+    pub n_main: usize,
+    /// E_p [J/m].
+    pub ep: Real,
+    /// E_kx [J/m].
+    pub ekx: Real,
+    /// E_ky [J/m].
+    pub eky: Real,
+    /// E_rot [J/m].
+    pub erot: Real,
+    /// Stored elastic energy [J/m].
+    pub elastic: Real,
+    /// Cumulative dissipation split (zeros if the ledger is off).
+    pub ledger: Ledger,
+    /// Energy balance residual E_0 − (E_p+E_k+E_rot+elastic+dissipated) [J/m].
+    pub residual: Real,
+}
+
+/// Grain positions and velocities at one time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    /// Time since release [s].
+    pub t: Real,
+    /// Grain state.
+    pub state: State,
+}
+
+impl Snapshot {
+    /// ParaView `.vtp` document (radius, velocity, spin).
+    pub fn to_vtp(&self) -> String {
+        use crate::vtk::{Field, polydata};
+        let s = &self.state;
+        polydata(&s.x, &s.y, &[("radius", Field::Scalar(&s.r)), ("velocity", Field::Vector(&s.vx, &s.vy)), ("spin", Field::Scalar(&s.w))])
+    }
+}
+
+/// Why the run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// Kinetic energy fell below the threshold.
+    AtRest,
+    /// `t_max` reached.
+    TimeLimit,
+}
+
+/// Result of one collapse run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CollapseResult {
+    /// L_0 [m].
+    pub l0: Real,
+    /// H_0 [m].
+    pub h0: Real,
+    /// τ_c = √(H_0/g) [s].
+    pub tau_c: Real,
+    /// Time series.
+    pub samples: Vec<Sample>,
+    /// Snapshots at the requested times, then the final state.
+    pub snapshots: Vec<Snapshot>,
+    /// Why the run stopped.
+    pub stop: StopReason,
+    /// Steps taken.
+    pub steps: u64,
+    /// Time step [s].
+    pub dt: Real,
+    /// Wall time of the run [s].
+    pub wall_s: f64,
+    /// Phase timers.
+    pub timers: PhaseTimers,
+    /// Pre-flight table of the run.
+    pub preflight: Preflight,
+    /// Largest overlap / d seen at the samples.
+    pub max_overlap_fraction: Real,
+}
+
+impl CollapseResult {
+    /// Final run-out L_f [m].
+    pub fn runout(&self) -> Real { self.samples.last().map(|s| s.length).unwrap_or(self.l0) }
+    /// Normalised run-out ΔL = (L_f − L_0)/L_0 (D02).
+    pub fn delta_l(&self) -> Real { (self.runout() - self.l0) / self.l0 }
+}
+
+fn sample(w: &World, t0: Real, gap: Real) -> Sample {
+    let s = &w.state;
+    let f = front(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, Link::Contact { gap });
+    let b = w.balance();
+    let e = b.energies;
+    Sample {
+        t: w.t - t0, length: f.length, height: f.height, n_main: f.n_main, ep: e.ep, ekx: e.ekx, eky: e.eky, erot: e.erot,
+        elastic: e.elastic(), ledger: w.ledger, residual: if w.params.ledger { b.residual } else { 0.0 },
+    }
+}
+
+/// Open the gate of `column` and run the collapse with `params`.
+pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Result<CollapseResult, DemError> {
+    let mut walls = box_walls(column.l0);
+    walls[2].active = false; // gate removed instantly at t = 0 (UNSPEC removal speed)
+    if cp.right_wall_at > 0.0 {
+        walls.push(crate::dem::walls::Wall::right("far", cp.right_wall_at * column.l0));
+    }
+    let mut w = World::new(params.clone(), column.state.clone(), walls, None)?;
+    let preflight = w.preflight()?;
+    let g = params.gravity.max(1e-12);
+    let tau_c = (column.h0 / g).sqrt();
+    let d_mean = 2.0 * column.state.radius_stats().1;
+    let gap = cp.link_gap * d_mean;
+    let ep0 = w.energies().ep;
+    let mut snaps: Vec<Real> = cp.snapshots.iter().map(|s| s * tau_c).collect();
+    snaps.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let mut snapshots = Vec::new();
+    let mut samples = vec![sample(&w, 0.0, gap)];
+    let dt_sample = (cp.sample_every * tau_c).max(params.dt);
+    let started = Instant::now();
+    let mut next_snap = 0;
+    let mut max_ov: Real = 0.0;
+    let stop = loop {
+        let mut t_next = w.t + dt_sample;
+        if next_snap < snaps.len() && snaps[next_snap] < t_next {
+            t_next = snaps[next_snap].max(w.t);
+        }
+        w.run_until(t_next)?;
+        while next_snap < snaps.len() && snaps[next_snap] <= w.t + 0.5 * params.dt {
+            snapshots.push(Snapshot { t: w.t, state: w.state.clone() });
+            next_snap += 1;
+        }
+        max_ov = max_ov.max(w.info.max_overlap_fraction);
+        let smp = sample(&w, 0.0, gap);
+        let ke = smp.ekx + smp.eky + smp.erot;
+        samples.push(smp);
+        if w.t >= cp.t_min * tau_c && ke < cp.stop_ke_ratio * ep0 {
+            break StopReason::AtRest;
+        }
+        if w.t >= cp.t_max * tau_c {
+            break StopReason::TimeLimit;
+        }
+    };
+    let wall_s = started.elapsed().as_secs_f64();
+    snapshots.push(Snapshot { t: w.t, state: w.state.clone() });
+    Ok(CollapseResult {
+        l0: column.l0, h0: column.h0, tau_c, samples, snapshots, stop, steps: w.steps, dt: params.dt, wall_s,
+        timers: w.timers, preflight, max_overlap_fraction: max_ov,
+    })
+}
+
+/// One accuracy setting of the DEM work-precision sweep.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Variant {
+    /// Label for tables.
+    pub label: String,
+    /// Factor on k_n, k_t, k_r (1 = table 4.2).
+    pub stiffness_factor: Real,
+    /// Δt as a fraction of the smallest collision time t_c at that stiffness.
+    pub dt_fraction: Real,
+}
+
+/// Outcome of one variant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkPrecisionRow {
+    /// The variant.
+    pub variant: Variant,
+    /// Δt used [s].
+    pub dt: Real,
+    /// ΔL = (L_f − L_0)/L_0.
+    pub delta_l: Real,
+    /// H_f / L_0.
+    pub h_final_over_l0: Real,
+    /// |ΔL − ΔL_ref| / ΔL_ref, reference = the first variant.
+    pub error: Real,
+    /// Wall time [s].
+    pub wall_s: f64,
+    /// Steps.
+    pub steps: u64,
+}
+
+/// Run the collapse once per variant (first = reference, the finest) and tabulate error
+/// against wall time.
+pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, variants: &[Variant]) -> Result<Vec<WorkPrecisionRow>, DemError> {
+    let mut rows: Vec<WorkPrecisionRow> = Vec::new();
+    for v in variants {
+        let mut p = base.softened(v.stiffness_factor);
+        let (r_min, _, _) = column.state.radius_stats();
+        let sizes = crate::dem::preflight::SizeClasses { r_min, r_mean: r_min, r_max: r_min };
+        let tc = crate::dem::preflight::time_scales(&p, sizes, false, 1.0)[0].value;
+        p.dt = v.dt_fraction * tc;
+        let r = collapse(column, &p, cp)?;
+        let last = r.samples.last().copied();
+        let delta_l = r.delta_l();
+        let reference = rows.first().map(|x| x.delta_l).unwrap_or(delta_l);
+        rows.push(WorkPrecisionRow {
+            variant: v.clone(), dt: p.dt, delta_l, h_final_over_l0: last.map(|s| s.height / r.l0).unwrap_or(0.0),
+            error: (delta_l - reference).abs() / reference.abs().max(1e-12), wall_s: r.wall_s, steps: r.steps,
+        });
+    }
+    Ok(rows)
+}

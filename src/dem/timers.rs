@@ -1,0 +1,38 @@
+//! Per-phase wall-clock counters (rapier `stages_counters.rs`): always on, read by the
+//! work-precision report and the benchmark.
+
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Seconds spent in each phase of [`World::step`](crate::dem::World::step).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhaseTimers {
+    /// `refresh_neighbors` (displacement check + rebuilds).
+    pub neighbors: f64,
+    /// `compute_contacts`, pair pass (forces per listed pair).
+    pub contacts: f64,
+    /// `compute_contacts`, per-grain gather of pair forces in fixed order (+ gravity).
+    pub gather: f64,
+    /// `apply_walls`.
+    pub walls: f64,
+    /// `integrate` (both half kicks and the drift).
+    pub integrate: f64,
+    /// `ledger` (reduction of dissipation partials).
+    pub ledger: f64,
+    /// `watchdog`.
+    pub watchdog: f64,
+}
+
+impl PhaseTimers {
+    /// Sum of all phases [s].
+    pub fn total(&self) -> f64 { self.neighbors + self.contacts + self.gather + self.walls + self.integrate + self.ledger + self.watchdog }
+}
+
+/// Run `f`, add its duration to `*slot`.
+#[inline(always)]
+pub fn timed<T>(slot: &mut f64, f: impl FnOnce() -> T) -> T {
+    let t0 = Instant::now();
+    let r = f();
+    *slot += t0.elapsed().as_secs_f64();
+    r
+}

@@ -1,0 +1,656 @@
+//! The DEM world and its step, a list of named phases:
+//!
+//! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` →
+//! `apply_walls` → `integrate(second half kick)` → `ledger` → `watchdog`.
+//!
+//! Velocity Verlet (kick–drift–kick); contact forces at x^{n+1} use v^{n+½} (as LAMMPS
+//! `fix nve/sphere`). Physics terms are picked once per [`World::run`] call by matching
+//! the parameters to a monomorphised `step_with::<ROLLING, IMPLICIT, LEDGER>`.
+//!
+//! Parallelism (rayon, current pool): pairs are cut into fixed chunks of [`PAIR_CHUNK`],
+//! grains into chunks of [`GRAIN_CHUNK`]; each pair's force is written to its own slot,
+//! then each grain sums its pairs in increasing pair order, and scalar partials are summed
+//! chunk by chunk in chunk order. Nothing depends on the thread count, so results are
+//! bit-identical for any number of threads.
+
+use crate::dem::contact_law::{Law, LawCoeffs, PairIn};
+use crate::dem::energy::{Balance, Energies, Ledger};
+use crate::dem::error::DemError;
+use crate::dem::neighbors::NeighborList;
+use crate::dem::params::{DemParams, RollingDamping, normal_damping};
+use crate::dem::preflight::{Preflight, SizeClasses, preflight};
+use crate::dem::state::{ContactState, State};
+use crate::dem::timers::PhaseTimers;
+use crate::dem::walls::Wall;
+use crate::math::{Real, Vec2};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Pairs per parallel work unit (fixed: the reduction order must not depend on threads).
+pub const PAIR_CHUNK: usize = 512;
+/// Grains per parallel work unit.
+pub const GRAIN_CHUNK: usize = 256;
+/// Most walls a scene can have.
+pub const MAX_WALLS: usize = 8;
+
+#[derive(Clone, Copy)]
+pub(crate) struct Ptr<T>(pub(crate) *mut T);
+unsafe impl<T> Send for Ptr<T> {}
+unsafe impl<T> Sync for Ptr<T> {}
+impl<T: Copy> Ptr<T> {
+    #[inline(always)]
+    pub(crate) unsafe fn get(self, i: usize) -> T { unsafe { *self.0.add(i) } }
+    #[inline(always)]
+    pub(crate) unsafe fn set(self, i: usize, v: T) { unsafe { *self.0.add(i) = v } }
+}
+
+/// Per-chunk partial results, summed in chunk order.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Partial {
+    pub ledger: Ledger,
+    pub max_overlap: Real,
+    pub max_i: u32,
+    pub max_j: u32,
+    pub wall_force: [Vec2; MAX_WALLS],
+    pub moved: bool,
+}
+
+impl Partial {
+    pub(crate) fn merge(&mut self, o: &Partial) {
+        self.ledger += o.ledger;
+        if o.max_overlap > self.max_overlap {
+            self.max_overlap = o.max_overlap;
+            self.max_i = o.max_i;
+            self.max_j = o.max_j;
+        }
+        for w in 0..MAX_WALLS {
+            self.wall_force[w] += o.wall_force[w];
+        }
+        self.moved |= o.moved;
+    }
+}
+
+pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl Fn(usize, usize) -> T + Sync + Send) {
+    let nc = n.div_ceil(chunk);
+    (0..nc).into_par_iter().map(|c| f(c * chunk, ((c + 1) * chunk).min(n))).collect_into_vec(out);
+}
+
+/// Diagnostics of the last step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepInfo {
+    /// Largest overlap / smaller diameter of the pair (or the grain at a wall).
+    pub max_overlap_fraction: Real,
+    /// Grains of that contact (j = u32::MAX for a wall).
+    pub max_pair: (u32, u32),
+    /// Force exerted by the grains on each wall [N/m] (index as in `walls`).
+    pub wall_force: [Vec2; MAX_WALLS],
+}
+
+/// A DEM scene with its solver scratch.
+#[derive(Debug, Clone)]
+pub struct World {
+    /// Parameters (read each step; change between `run` calls only).
+    pub params: DemParams,
+    /// Grain state.
+    pub state: State,
+    /// Walls (at most [`MAX_WALLS`]).
+    pub walls: Vec<Wall>,
+    /// Period along x [m], if the cell is periodic in x.
+    pub periodic_x: Option<Real>,
+    /// Simulated time [s].
+    pub t: Real,
+    /// Steps done.
+    pub steps: u64,
+    /// Cumulative dissipation (filled when `params.ledger`).
+    pub ledger: Ledger,
+    /// Total energy when the ledger was (re)started [J/m].
+    pub e0: Real,
+    /// Whether the watchdog's energy-rise check applies (off for driven scenes without ledger).
+    pub energy_check: bool,
+    /// Phase timers.
+    pub timers: PhaseTimers,
+    /// Last step's diagnostics.
+    pub info: StepInfo,
+    pub(crate) nl: NeighborList,
+    pub(crate) wall_hist: Vec<ContactState>,
+    pub(crate) wall_cn: Vec<Real>,
+    pub(crate) fx: Vec<Real>,
+    pub(crate) fy: Vec<Real>,
+    pub(crate) tq: Vec<Real>,
+    /// Σ c_r over a grain's elastic rolling contacts with other grains (implicit dashpot).
+    pub(crate) c_roll: Vec<Real>,
+    /// Σ c_r ω_j over the same contacts.
+    pub(crate) s_roll: Vec<Real>,
+    /// Σ c_r over a grain's elastic rolling contacts with walls (partner spin 0).
+    pub(crate) c_wall: Vec<Real>,
+    /// Per-pair output [f_x, f_y, torque_i, torque_j] (one cache line per two pairs).
+    pub(crate) pout: Vec<[Real; 4]>,
+    pub(crate) pcr: Vec<Real>,
+    pub(crate) partials: Vec<Partial>,
+    pub(crate) forces_valid: bool,
+    /// Inactive walls whose contact histories have been released.
+    pub(crate) wall_cleared: [bool; MAX_WALLS],
+    /// Walls as they were at the end of the last `run` (edits in between invalidate forces).
+    pub(crate) walls_seen: Vec<Wall>,
+}
+
+impl World {
+    /// A world from a state, walls and parameters. Validates the parameters.
+    pub fn new(params: DemParams, state: State, walls: Vec<Wall>, periodic_x: Option<Real>) -> Result<Self, DemError> {
+        let issues = params.validate();
+        if !issues.is_empty() {
+            let s: Vec<String> = issues.iter().map(|i| format!("{} = {} (allowed: {})", i.key, i.value, i.allowed)).collect();
+            return Err(DemError::InvalidParams(s.join("; ")));
+        }
+        if walls.len() > MAX_WALLS {
+            return Err(DemError::Setup(format!("{} walls given, at most {MAX_WALLS} supported", walls.len())));
+        }
+        if periodic_x.is_some_and(|l| !(l > 0.0)) {
+            return Err(DemError::Setup("periodic period must be > 0".into()));
+        }
+        let mut w = World {
+            params,
+            state,
+            walls,
+            periodic_x,
+            t: 0.0,
+            steps: 0,
+            ledger: Ledger::default(),
+            e0: 0.0,
+            energy_check: true,
+            timers: PhaseTimers::default(),
+            info: StepInfo::default(),
+            nl: NeighborList::default(),
+            wall_hist: Vec::new(),
+            wall_cn: Vec::new(),
+            fx: Vec::new(),
+            fy: Vec::new(),
+            tq: Vec::new(),
+            c_roll: Vec::new(),
+            s_roll: Vec::new(),
+            c_wall: Vec::new(),
+            pout: Vec::new(),
+            wall_cleared: [false; MAX_WALLS],
+            walls_seen: Vec::new(),
+            pcr: Vec::new(),
+            partials: Vec::new(),
+            forces_valid: false,
+        };
+        w.resize_scratch();
+        w.rebuild();
+        w.e0 = w.energies().total();
+        Ok(w)
+    }
+
+    /// Call after appending grains or changing masses (histories of existing grains are
+    /// kept; after removing grains build a new `World` instead).
+    pub fn resize_scratch(&mut self) {
+        let n = self.state.len();
+        for v in [&mut self.fx, &mut self.fy, &mut self.tq, &mut self.c_roll, &mut self.s_roll, &mut self.c_wall] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        // keep wall histories of grains that still exist (grains appended at the end)
+        let old_n = self.wall_hist.len() / MAX_WALLS;
+        let mut wh = vec![ContactState::default(); MAX_WALLS * n];
+        for wi in 0..MAX_WALLS {
+            for a in 0..old_n.min(n) {
+                wh[wi * n + a] = self.wall_hist[wi * old_n + a];
+            }
+        }
+        self.wall_hist = wh;
+        let (z, kn) = (self.params.wall.damping_ratio(), self.params.wall.kn);
+        self.wall_cn = self.state.m.iter().map(|&m| normal_damping(z, m, kn)).collect();
+        // the list is rebuilt (positions changed); pair histories are kept by key
+        self.nl.x0.clear();
+        self.forces_valid = false;
+    }
+
+    /// Rebuild the neighbour list now.
+    pub fn rebuild(&mut self) {
+        let skin = self.params.skin_fraction * 2.0 * self.state.r.iter().cloned().fold(0.0, Real::max);
+        let (z, kn) = (self.params.grain.damping_ratio(), self.params.grain.kn);
+        let m = std::mem::take(&mut self.state.m);
+        let mut s = std::mem::take(&mut self.state);
+        s.m = Vec::new();
+        self.nl.build(&mut s, skin, self.periodic_x, |i, j| normal_damping(z, m[i] * m[j] / (m[i] + m[j]), kn));
+        s.m = m;
+        self.state = s;
+        let np = self.nl.len();
+        self.pout.resize(np, [0.0; 4]);
+        self.pcr.resize(np, 0.0);
+    }
+
+    /// Forces must be recomputed before the next kick (after external state edits that
+    /// change positions, e.g. moving grains by hand).
+    pub fn invalidate_forces(&mut self) { self.forces_valid = false; }
+
+    /// Size classes of the current grains.
+    pub fn size_classes(&self) -> SizeClasses {
+        let (r_min, r_mean, r_max) = self.state.radius_stats();
+        SizeClasses { r_min, r_mean, r_max }
+    }
+
+    /// Stability audit of this scene at `params.dt`.
+    pub fn preflight(&self) -> Result<Preflight, DemError> {
+        preflight(&self.params, self.size_classes(), !self.walls.is_empty(), self.params.dt)
+    }
+
+    /// Restart the ledger: zero dissipation, E_0 = current total energy.
+    pub fn reset_ledger(&mut self) {
+        self.ledger = Ledger::default();
+        self.e0 = self.energies().total();
+    }
+
+    /// Add work done on the grains by an outside driver [J/m].
+    pub fn add_external_work(&mut self, w: Real) { self.ledger.external_work += w; }
+
+    /// One step.
+    pub fn step(&mut self) -> Result<(), DemError> { self.run(1) }
+
+    /// `n` steps; physics variant chosen once.
+    pub fn run(&mut self, n: u64) -> Result<(), DemError> {
+        if self.walls.len() > MAX_WALLS {
+            return Err(DemError::Setup(format!("{} walls, at most {MAX_WALLS} supported", self.walls.len())));
+        }
+        let rolling = self.params.rolling.enabled;
+        let implicit = self.params.rolling.damping == RollingDamping::Implicit;
+        let ledger = self.params.ledger;
+        match (rolling, implicit, ledger) {
+            (true, true, true) => self.run_with::<true, true, true>(n),
+            (true, true, false) => self.run_with::<true, true, false>(n),
+            (true, false, true) => self.run_with::<true, false, true>(n),
+            (true, false, false) => self.run_with::<true, false, false>(n),
+            (false, _, true) => self.run_with::<false, false, true>(n),
+            (false, _, false) => self.run_with::<false, false, false>(n),
+        }
+    }
+
+    /// Run until simulated time `t_end` (at most) [s].
+    pub fn run_until(&mut self, t_end: Real) -> Result<(), DemError> {
+        let n = ((t_end - self.t) / self.params.dt).round();
+        if n > 0.0 { self.run(n as u64) } else { Ok(()) }
+    }
+
+    fn run_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
+        if self.walls != self.walls_seen {
+            // a wall was edited between runs (gate removed, wall shifted): the stored forces
+            // are stale for the first half kick
+            self.forces_valid = false;
+        }
+        if !self.forces_valid {
+            self.compute_forces::<R, IMP, L>(0.0);
+            self.forces_valid = true;
+        }
+        let mut res = Ok(());
+        for _ in 0..n {
+            res = self.step_with::<R, IMP, L>();
+            if res.is_err() { break; }
+        }
+        self.walls_seen.clone_from(&self.walls);
+        res
+    }
+
+    fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self) -> Result<(), DemError> {
+        let dt = self.params.dt;
+        let t0 = Instant::now();
+        let moved = self.integrate_first_half::<IMP, L>();
+        let t1 = Instant::now();
+        self.timers.integrate += (t1 - t0).as_secs_f64();
+        if moved { self.refresh_neighbors(); }
+        let t2 = Instant::now();
+        self.timers.neighbors += (t2 - t1).as_secs_f64();
+        self.compute_forces::<R, IMP, L>(dt);
+        let t3 = Instant::now();
+        self.integrate_second_half::<IMP, L>();
+        self.t += dt;
+        self.steps += 1;
+        let t4 = Instant::now();
+        self.timers.integrate += (t4 - t3).as_secs_f64();
+        let wd = self.params.watchdog.every;
+        if wd > 0 && self.steps % wd == 0 {
+            self.watchdog()?;
+        }
+        self.timers.watchdog += t4.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    fn refresh_neighbors(&mut self) { self.rebuild(); }
+
+    /// Contact and wall forces at the current positions with the current velocities;
+    /// histories advance by `dt` (0 for the priming evaluation).
+    fn compute_forces<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) {
+        let t0 = Instant::now();
+        let p = self.compute_contacts::<R, IMP, L>(dt);
+        let t1 = Instant::now();
+        self.timers.contacts += (t1 - t0).as_secs_f64();
+        let q = self.apply_walls::<R, IMP, L>(dt);
+        let t2 = Instant::now();
+        self.timers.walls += (t2 - t1).as_secs_f64();
+        self.ledger_phase::<L>(&p, &q);
+        self.timers.ledger += t2.elapsed().as_secs_f64();
+    }
+
+    fn ledger_phase<const L: bool>(&mut self, p: &Partial, q: &Partial) {
+        let (fp, fq) = (p.max_overlap, q.max_overlap);
+        self.info.max_overlap_fraction = fp.max(fq);
+        self.info.max_pair = if fp >= fq { (p.max_i, p.max_j) } else { (q.max_i, u32::MAX) };
+        self.info.wall_force = q.wall_force;
+        if L {
+            self.ledger += p.ledger;
+            self.ledger += q.ledger;
+        }
+    }
+
+    /// Pair forces in parallel, then a per-grain gather in fixed order.
+    fn compute_contacts<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) -> Partial {
+        let coeffs = LawCoeffs::new(&self.params.grain, &self.params.rolling);
+        let s = &self.state;
+        let nl = &mut self.nl;
+        let np = nl.pi.len();
+        let lx = self.periodic_x.unwrap_or(0.0);
+        let (pi, pj, shift, cn, rr) = (&nl.pi, &nl.pj, &nl.shift, &nl.cn, &nl.r_roll);
+        let hist = Ptr(nl.hist.as_mut_ptr());
+        let (pout, pcr) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.pcr.as_mut_ptr()));
+        let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
+        chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| {
+            let mut part = Partial::default();
+            for k in lo..hi {
+                let (i, j) = (pi[k] as usize, pj[k] as usize);
+                let dx = x[i] - (x[j] + shift[k] * lx);
+                let dy = y[i] - y[j];
+                let rsq = dx * dx + dy * dy;
+                let radsum = r[i] + r[j];
+                // cheapest rejection first: separated → drop history
+                if rsq >= radsum * radsum {
+                    unsafe {
+                        let h = hist.get(k);
+                        if h != ContactState::default() {
+                            if L {
+                                let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
+                                part.ledger.tangential += et;
+                                part.ledger.rolling += er;
+                            }
+                            hist.set(k, ContactState::default());
+                        }
+                        pout.set(k, [0.0; 4]);
+                        if IMP { pcr.set(k, 0.0); }
+                    }
+                    continue;
+                }
+                let d = rsq.sqrt();
+                let inv = 1.0 / d;
+                let overlap = radsum - d;
+                let dmin = 2.0 * r[i].min(r[j]);
+                if overlap > part.max_overlap * dmin {
+                    part.max_overlap = overlap / dmin;
+                    part.max_i = i as u32;
+                    part.max_j = j as u32;
+                }
+                let pin = PairIn {
+                    n: Vec2::new(dx * inv, dy * inv),
+                    overlap,
+                    v_rel: Vec2::new(vx[i] - vx[j], vy[i] - vy[j]),
+                    w_i: w[i],
+                    w_j: w[j],
+                    arm_i: r[i],
+                    arm_j: r[j],
+                    r_roll: rr[k],
+                    cn: cn[k],
+                };
+                unsafe {
+                    let mut h = hist.get(k);
+                    let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
+                    hist.set(k, h);
+                    pout.set(k, [o.f.x, o.f.y, o.t_i, o.t_j]);
+                    if IMP { pcr.set(k, o.c_roll); }
+                    if L {
+                        part.ledger.normal_damping += o.work.normal;
+                        part.ledger.tangential += o.work.tangential;
+                        part.ledger.rolling += o.work.rolling;
+                    }
+                }
+            }
+            part
+        });
+        let mut total = Partial::default();
+        for p in &self.partials {
+            total.merge(p);
+        }
+        let t_gather = Instant::now();
+        // gather per grain, in increasing pair order
+        let n = s.len();
+        let g = self.params.gravity;
+        let (istart, jstart, jlist) = (&nl.istart, &nl.jstart, &nl.jlist);
+        let (pout, pcr) = (&self.pout[..], &self.pcr[..]);
+        let (fx, fy, tq, cr, sr) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.c_roll.as_mut_ptr()), Ptr(self.s_roll.as_mut_ptr()));
+        let cw = Ptr(self.c_wall.as_mut_ptr());
+        let m = &s.m[..];
+        chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
+            for a in lo..hi {
+                let (mut ax, mut ay, mut at, mut ac, mut asr) = (0.0, -m[a] * g, 0.0, 0.0, 0.0);
+                // pairs where a is i: contiguous, sequential reads
+                for k in istart[a] as usize..istart[a + 1] as usize {
+                    let o = &pout[k];
+                    ax += o[0];
+                    ay += o[1];
+                    at += o[2];
+                    if IMP {
+                        ac += pcr[k];
+                        asr += pcr[k] * w[pj[k] as usize];
+                    }
+                }
+                // pairs where a is j
+                for &k in &jlist[jstart[a] as usize..jstart[a + 1] as usize] {
+                    let k = k as usize;
+                    let o = &pout[k];
+                    ax -= o[0];
+                    ay -= o[1];
+                    at += o[3];
+                    if IMP {
+                        ac += pcr[k];
+                        asr += pcr[k] * w[pi[k] as usize];
+                    }
+                }
+                unsafe {
+                    fx.set(a, ax);
+                    fy.set(a, ay);
+                    tq.set(a, at);
+                    if IMP {
+                        cr.set(a, ac);
+                        cw.set(a, 0.0);
+                        sr.set(a, asr);
+                    }
+                }
+            }
+            Partial::default()
+        });
+        let el = t_gather.elapsed().as_secs_f64();
+        self.timers.gather += el;
+        self.timers.contacts -= el;
+        total
+    }
+
+    /// Grain–wall contacts with the same law, per grain in parallel.
+    fn apply_walls<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) -> Partial {
+        let mut total = Partial::default();
+        self.release_inactive_walls::<R, IMP, L>(&mut total);
+        if self.walls.iter().all(|w| !w.active) {
+            return total;
+        }
+        let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
+        let s = &self.state;
+        let n = s.len();
+        let walls = &self.walls;
+        let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
+        let wcn = &self.wall_cn[..];
+        let hist = Ptr(self.wall_hist.as_mut_ptr());
+        let (fx, fy, tq, cw) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.c_wall.as_mut_ptr()));
+        chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
+            let mut part = Partial::default();
+            for (wi, wall) in walls.iter().enumerate() {
+                if !wall.active { continue; }
+                for a in lo..hi {
+                    let hk = wi * n + a;
+                    let p = Vec2::new(x[a], y[a]);
+                    let overlap = r[a] - wall.distance(p);
+                    if overlap <= 0.0 {
+                        unsafe {
+                            let h = hist.get(hk);
+                            if h != ContactState::default() {
+                                if L {
+                                    let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
+                                    part.ledger.wall_tangential += et;
+                                    part.ledger.rolling += er;
+                                }
+                                hist.set(hk, ContactState::default());
+                            }
+                        }
+                        continue;
+                    }
+                    let frac = overlap / (2.0 * r[a]);
+                    if frac > part.max_overlap {
+                        part.max_overlap = frac;
+                        part.max_i = a as u32;
+                    }
+                    let pin = PairIn {
+                        n: wall.normal,
+                        overlap,
+                        v_rel: Vec2::new(vx[a], vy[a]) - wall.velocity,
+                        w_i: w[a],
+                        w_j: 0.0,
+                        arm_i: r[a],
+                        arm_j: 0.0,
+                        r_roll: r[a],
+                        cn: wcn[a],
+                    };
+                    unsafe {
+                        let mut h = hist.get(hk);
+                        let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
+                        hist.set(hk, h);
+                        fx.set(a, fx.get(a) + o.f.x);
+                        fy.set(a, fy.get(a) + o.f.y);
+                        tq.set(a, tq.get(a) + o.t_i);
+                        if IMP { cw.set(a, cw.get(a) + o.c_roll); }
+                        part.wall_force[wi] -= o.f;
+                        if L {
+                            part.ledger.wall_normal += o.work.normal;
+                            part.ledger.wall_tangential += o.work.tangential;
+                            part.ledger.rolling += o.work.rolling;
+                            part.ledger.external_work += o.f.dot(&wall.velocity) * dt;
+                        }
+                    }
+                }
+            }
+            part
+        });
+        for p in &self.partials {
+            total.merge(p);
+        }
+        total
+    }
+
+    /// A wall that was switched off (removed gate) gives up its contacts once: stored
+    /// spring energy is booked as dissipated and the history zeroed.
+    fn release_inactive_walls<const R: bool, const IMP: bool, const L: bool>(&mut self, total: &mut Partial) {
+        let n = self.state.len();
+        let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
+        for (wi, wall) in self.walls.iter().enumerate() {
+            if wall.active {
+                self.wall_cleared[wi] = false;
+                continue;
+            }
+            if self.wall_cleared[wi] { continue; }
+            for h in &mut self.wall_hist[wi * n..(wi + 1) * n] {
+                if L {
+                    let (et, er) = Law::<R, IMP, L>::released(&coeffs, h);
+                    total.ledger.wall_tangential += et;
+                    total.ledger.rolling += er;
+                }
+                *h = ContactState::default();
+            }
+            self.wall_cleared[wi] = true;
+        }
+    }
+
+    /// Energies of the current configuration (D06), elastic parts included.
+    pub fn energies(&self) -> Energies {
+        let s = &self.state;
+        let g = self.params.gravity;
+        let mut e = Energies::default();
+        for i in 0..s.len() {
+            e.ep += s.m[i] * g * s.y[i];
+            e.ekx += 0.5 * s.m[i] * s.vx[i] * s.vx[i];
+            e.eky += 0.5 * s.m[i] * s.vy[i] * s.vy[i];
+            e.erot += 0.5 * s.inertia[i] * s.w[i] * s.w[i];
+        }
+        let (kn, kt, kr) = (self.params.grain.kn, self.params.grain.kt, if self.params.rolling.enabled { self.params.rolling.kr } else { 0.0 });
+        let lx = self.periodic_x.unwrap_or(0.0);
+        let nl = &self.nl;
+        for k in 0..nl.len() {
+            let (i, j) = (nl.pi[k] as usize, nl.pj[k] as usize);
+            let dx = s.x[i] - (s.x[j] + nl.shift[k] * lx);
+            let dy = s.y[i] - s.y[j];
+            let ov = s.r[i] + s.r[j] - (dx * dx + dy * dy).sqrt();
+            if ov > 0.0 {
+                e.elastic_normal += 0.5 * kn * ov * ov;
+            }
+            let h = nl.hist[k];
+            e.elastic_tangential += 0.5 * kt * h.tangential * h.tangential;
+            e.elastic_rolling += 0.5 * kr * h.rolling * h.rolling;
+        }
+        let (kwn, kwt) = (self.params.wall.kn, self.params.wall.kt);
+        let n = s.len();
+        for (wi, wall) in self.walls.iter().enumerate() {
+            for a in 0..n {
+                let h = self.wall_hist[wi * n + a];
+                e.elastic_tangential += 0.5 * kwt * h.tangential * h.tangential;
+                e.elastic_rolling += 0.5 * kr * h.rolling * h.rolling;
+                if wall.active {
+                    let ov = s.r[a] - wall.distance(Vec2::new(s.x[a], s.y[a]));
+                    if ov > 0.0 {
+                        e.elastic_normal += 0.5 * kwn * ov * ov;
+                    }
+                }
+            }
+        }
+        e
+    }
+
+    /// Energy balance now (meaningful with `params.ledger`).
+    pub fn balance(&self) -> Balance {
+        let energies = self.energies();
+        let residual = self.e0 + self.ledger.external_work - (energies.total() + self.ledger.dissipated());
+        Balance { e0: self.e0, energies, ledger: self.ledger, residual }
+    }
+
+    /// Number of grain–grain contacts (overlapping listed pairs) now.
+    pub fn contact_count(&self) -> usize {
+        let s = &self.state;
+        let lx = self.periodic_x.unwrap_or(0.0);
+        (0..self.nl.len()).filter(|&k| {
+            let (i, j) = (self.nl.pi[k] as usize, self.nl.pj[k] as usize);
+            let dx = s.x[i] - (s.x[j] + self.nl.shift[k] * lx);
+            let dy = s.y[i] - s.y[j];
+            let rs = s.r[i] + s.r[j];
+            dx * dx + dy * dy < rs * rs
+        }).count()
+    }
+
+    /// All listed grain pairs with their history (zero for pairs not in contact).
+    pub fn contact_histories(&self) -> impl Iterator<Item = (crate::dem::state::ContactKey, ContactState)> + '_ {
+        (0..self.nl.len()).map(|k| (crate::dem::state::ContactKey { i: self.nl.pi[k], j: self.nl.pj[k] }, self.nl.hist[k]))
+    }
+
+    /// Contact history between grains a and b, if listed.
+    pub fn contact_history(&self, a: u32, b: u32) -> Option<ContactState> { self.nl.history(a, b) }
+
+    /// Total contact + gravity force on grain i from the last evaluation [N/m].
+    pub fn force(&self, i: usize) -> Vec2 { Vec2::new(self.fx[i], self.fy[i]) }
+    /// Total torque on grain i from the last evaluation [N·m/m].
+    pub fn torque(&self, i: usize) -> Real { self.tq[i] }
+    /// Number of listed (Verlet) pairs.
+    pub fn pair_count(&self) -> usize { self.nl.len() }
+    /// Number of neighbour-list builds so far.
+    pub fn rebuilds(&self) -> u64 { self.nl.builds }
+}

@@ -1,0 +1,619 @@
+//! Granular column collapse with MPM (figures.md SC-COL, COL-MPM-MC/-MUI; fig4-04).
+//!
+//! Geometry: the DEM column size (I11): area A = 3.9e-3 m², L_0 = √(A/a), H_0 = a L_0; L_0 is
+//! snapped to whole cells (the gate must be a grid line) and H_0 = a L_0 to whole point
+//! spacings (a = 1: 62.4 → 62.0 mm; a = 0.4: 98.7 × 39.5 → 98.0 × 39.0 mm). The actual values
+//! are returned and must be used for normalisation. Left wall at x = 0 and base at
+//! y = 0, both Coulomb with `wall_friction`; the gate is a frictionless roller at x = L_0 during
+//! the geostatic stage, removed instantaneously at t = 0.
+//! Background grid: from x = 0 to L_0 (1 + 3 ΔL_est) + 8h where ΔL_est = 1.67a (a ≤ 2.7) or
+//! 2.7a^{2/3} (eq 4.6), and from y = 0 to 1.25 H_0 + 4h, plus ghost cells ("the extent of the
+//! background mesh in MPM is much larger than the initial column").
+//!
+//! Front (D01): main mass = points linked within 1.5 × initial spacing, L = max(x + l_p),
+//! H = max(y + l_p).
+
+use super::boundary;
+use super::energy::{Energies, energies};
+use super::error::MpmError;
+use super::geostatic::{self, GeostaticReport};
+use super::grid::Grid;
+use super::params::MpmParams;
+use super::particles::{self, Point};
+use super::solver::{PhaseTimes, Solver, State};
+use super::watchdog::EnergyWatch;
+use crate::analysis::front::{Body, Front, Link, front, main_mass};
+use crate::math::Real;
+
+/// Column area of the DEM columns (figures.md SC-COL: ≈3000 grains, φ ≈ 0.8) [m²].
+pub const DEM_COLUMN_AREA: Real = 3.9e-3;
+
+/// Column geometry.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ColumnSpec {
+    /// Initial width L_0 [m].
+    pub l0: Real,
+    /// Initial height H_0 [m].
+    pub h0: Real,
+}
+
+impl ColumnSpec {
+    /// The SC-COL column of aspect ratio `a` with the DEM area.
+    pub fn from_aspect(a: Real) -> Self {
+        Self::from_area(a, DEM_COLUMN_AREA)
+    }
+    /// A column of aspect ratio `a` and area `area` [m²].
+    pub fn from_area(a: Real, area: Real) -> Self {
+        let l0 = (area / a).sqrt();
+        Self { l0, h0: a * l0 }
+    }
+    /// Aspect ratio a = H_0/L_0.
+    pub fn aspect(&self) -> Real {
+        self.h0 / self.l0
+    }
+    /// τ_c = √(H_0/g) [s] (figures.md I14).
+    pub fn tau_c(&self, g: Real) -> Real {
+        (self.h0 / g).sqrt()
+    }
+    /// Run-out estimate of eq 4.6, used only to size the grid.
+    pub fn runout_estimate(&self) -> Real {
+        let a = self.aspect();
+        if a <= 2.7 { 1.67 * a } else { 2.7 * a.powf(2.0 / 3.0) }
+    }
+}
+
+/// A column ready to run: solver (walls + gate), state at rest and stress free.
+#[derive(Debug, Clone)]
+pub struct Column {
+    /// Geometry actually discretised (snapped to whole point spacings).
+    pub spec: ColumnSpec,
+    /// Solver with walls and gate.
+    pub solver: Solver,
+    /// Points.
+    pub state: State,
+}
+
+/// Discretise a column: √PPC × √PPC points per cell on the spacing lattice.
+pub fn build(params: &MpmParams, spec: ColumnSpec) -> Result<Column, MpmError> {
+    let mut c = crate::validate::Checker::new("column");
+    c.positive("l0", spec.l0);
+    c.positive("h0", spec.h0);
+    if !c.issues.is_empty() {
+        return Err(MpmError::InvalidParams(c.issues));
+    }
+    let s = params.spacing();
+    let h = params.cell_size;
+    // L_0 snapped to whole cells so that the gate lies on a grid line (a gate between node
+    // lines lets the last partial cell bulge and spoils the geostatic field); H_0 keeps the
+    // aspect ratio, snapped to whole point spacings.
+    let cells = (spec.l0 / h).round().max(1.0) as usize;
+    let nx = cells * params.ppc_1d() as usize;
+    let ny = ((spec.aspect() * cells as Real * h) / s).round().max(1.0) as usize;
+    let actual = ColumnSpec { l0: nx as Real * s, h0: ny as Real * s };
+    let pts = particles::rectangle(0.0, 0.0, nx, ny, s, params.material.density, 0);
+    let x1 = actual.l0 * (1.0 + 3.0 * actual.runout_estimate()) + 8.0 * h;
+    let y1 = 1.25 * actual.h0 + 4.0 * h;
+    let grid = Grid::covering(0.0, 0.0, x1, y1, h);
+    let mut walls = boundary::column_walls(params.wall_friction);
+    walls.push(boundary::gate(actual.l0));
+    let solver = Solver::new(params, grid, walls)?;
+    Ok(Column { spec: actual, solver, state: State::new(pts) })
+}
+
+/// The geostatic a = 1 column of fig4-04.
+#[derive(Debug, Clone)]
+pub struct GeostaticColumn {
+    /// Geometry.
+    pub spec: ColumnSpec,
+    /// Point x [m].
+    pub x: Vec<Real>,
+    /// Point y [m].
+    pub y: Vec<Real>,
+    /// σ_yy [Pa] (tension positive: negative in the column).
+    pub sigma_yy: Vec<Real>,
+    /// σ_xx [Pa].
+    pub sigma_xx: Vec<Real>,
+    /// Cell size [m] (grid lines at multiples of h from x = 0, y = 0).
+    pub cell_size: Real,
+    /// GIMP half-width l_p [m].
+    pub half_width: Real,
+    /// Mean σ_yy of the bottom row of points in the middle half of the base [Pa].
+    pub base_sigma_yy: Real,
+    /// The analytic value −ρ g (H_0 − y_row) at that row [Pa].
+    pub base_sigma_yy_analytic: Real,
+    /// |base − analytic| / |analytic| [-] (fig4-04 check: ≤ 2 %).
+    pub base_error: Real,
+    /// Geostatic stage report.
+    pub report: GeostaticReport,
+}
+
+/// Build the column and load it geostatically (gate in place). Returns the column ready for
+/// release (gate still present in `solver.walls`; call [`release`]).
+pub fn geostatic_column(params: &MpmParams, spec: ColumnSpec) -> Result<(Column, GeostaticReport), MpmError> {
+    let mut col = build(params, spec)?;
+    let rep = geostatic::run(&mut col.solver, &mut col.state, col.spec.h0)?;
+    Ok((col, rep))
+}
+
+/// Remove the gate (instantaneous release).
+pub fn release(col: &mut Column) {
+    let l0 = col.spec.l0;
+    col.solver.walls.retain(|w| !(w.axis == super::params::Axis::X && w.at == l0 && !w.material_on_plus_side));
+}
+
+/// fig4-04: the a = 1 column (default size, table 4.3 parameters) after the geostatic stage.
+pub fn fig4_04(params: &MpmParams) -> Result<GeostaticColumn, MpmError> {
+    let (col, report) = geostatic_column(params, ColumnSpec::from_aspect(1.0))?;
+    let pts = &col.state.points;
+    let s = params.spacing();
+    let rho_g = params.material.density * params.gravity;
+    let (mut sum, mut n, mut y_row) = (0.0, 0usize, 0.0);
+    for p in pts {
+        if p.x.y < s && p.x.x > 0.25 * col.spec.l0 && p.x.x < 0.75 * col.spec.l0 {
+            sum += p.stress.yy;
+            y_row += p.x.y;
+            n += 1;
+        }
+    }
+    let base = sum / n.max(1) as Real;
+    let y_row = y_row / n.max(1) as Real;
+    let analytic = -rho_g * (col.spec.h0 - y_row);
+    Ok(GeostaticColumn {
+        spec: col.spec,
+        x: pts.iter().map(|p| p.x.x).collect(),
+        y: pts.iter().map(|p| p.x.y).collect(),
+        sigma_yy: pts.iter().map(|p| p.stress.yy).collect(),
+        sigma_xx: pts.iter().map(|p| p.stress.xx).collect(),
+        cell_size: params.cell_size,
+        half_width: params.half_width(),
+        base_sigma_yy: base,
+        base_sigma_yy_analytic: analytic,
+        base_error: ((base - analytic) / analytic).abs(),
+        report,
+    })
+}
+
+/// When to stop a collapse run and what to record.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CollapseOptions {
+    /// Sampling interval of the time series, in units of τ_c [-]. 0.02.
+    pub sample_every_tau: Real,
+    /// Stop when E_k,grid < `stop_ke_ratio` × E_p(0) (after `min_time_tau`) [-]. 1e-5.
+    /// E_k,grid (`SampleEnergies::kinetic_grid`) ignores the FLIP point-velocity noise.
+    pub stop_ke_ratio: Real,
+    /// Also stop when the front is still: L and H moved less than `still_tol` over the last
+    /// `still_tau` τ_c while E_k,grid < `still_ke_ratio` × E_p(0). Defaults: 1 τ_c,
+    /// 0.5 d̄ = 0.575 mm (figures.md D10), 1e-3.
+    pub still_tau: Real,
+    /// See `still_tau` [m].
+    pub still_tol: Real,
+    /// See `still_tau` [-].
+    pub still_ke_ratio: Real,
+    /// Never stop before this time [τ_c]. 1.
+    pub min_time_tau: Real,
+    /// Hard end [τ_c]. 12.
+    pub max_time_tau: Real,
+    /// Snapshot times [τ_c] (taken at the first step at or after each).
+    pub snapshot_tau: Vec<Real>,
+    /// Skip the geostatic stage (start stress free; for tests).
+    pub skip_geostatic: bool,
+}
+
+impl Default for CollapseOptions {
+    fn default() -> Self {
+        Self {
+            sample_every_tau: 0.02,
+            stop_ke_ratio: 1e-5,
+            still_tau: 1.0,
+            still_tol: 0.5 * 1.15e-3,
+            still_ke_ratio: 1e-3,
+            min_time_tau: 1.0,
+            max_time_tau: 12.0,
+            snapshot_tau: Vec::new(),
+            skip_geostatic: false,
+        }
+    }
+}
+
+/// One row of the collapse time series.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Sample {
+    /// Time since release [s].
+    pub t: Real,
+    /// Front L(t) [m].
+    pub l: Real,
+    /// Height H(t) [m].
+    pub h: Real,
+    /// Farthest right edge over all points, detached ones included [m] (diagnostic: the
+    /// main-mass L depends on the linking distance of D01).
+    pub l_all: Real,
+    /// Mass fraction of the main mass [-].
+    pub main_fraction: Real,
+    /// L of the main mass with dilation-following links ([`front_of_dilated`]) [m].
+    pub l_dilated: Real,
+    /// x below which 99 % of the mass lies, plus l_p [m] (a front insensitive to linking).
+    pub l_q99: Real,
+    /// Energies [J/m].
+    pub e: SampleEnergies,
+    /// Inertial-number statistics (computed for every model as a diagnostic).
+    pub inertial: InertialStats,
+}
+
+/// Inertial number I = γ̇ d̄/√(p/ρ_s) over the points at one time (figures.md D08, fig4-15):
+/// γ̇ from the point's last velocity gradient, p = −tr σ/3, capped at `material.i_max`.
+/// "Flowing" = γ̇ > 1e-3 √(g/d̄) and p > 0 (points at the Mohr–Coulomb apex, stress free, have
+/// no defined I and are counted in `stress_free_fraction` instead).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct InertialStats {
+    /// Mass-weighted mean of I over flowing points [-] (0 if none).
+    pub mean_flowing: Real,
+    /// 95th percentile of I over flowing points [-].
+    pub p95_flowing: Real,
+    /// Maximum of I over all points [-].
+    pub max: Real,
+    /// Mass fraction of flowing points [-].
+    pub flowing_fraction: Real,
+    /// Mass fraction of points with p ≤ 0 (stress free) [-].
+    pub stress_free_fraction: Real,
+}
+
+/// Inertial number of every point (diagnostic; the μ(I) models compute the same inside the
+/// step) [-].
+pub fn inertial_numbers(state: &State, m: &super::params::Material) -> Vec<Real> {
+    state
+        .points
+        .iter()
+        .map(|p| super::material::inertial_number(super::material::shear_rate(&p.grad_v), p.stress.pressure(), m.grain_diameter, m.grain_density, m.i_max))
+        .collect()
+}
+
+/// Statistics of I (see [`InertialStats`]).
+pub fn inertial_stats(state: &State, m: &super::params::Material, g: Real) -> InertialStats {
+    let thr = 1e-3 * (g / m.grain_diameter).sqrt();
+    let mut flowing: Vec<(Real, Real)> = Vec::new();
+    let (mut mass, mut mflow, mut sum, mut max, mut mfree) = (0.0, 0.0, 0.0, 0.0f64, 0.0);
+    for p in &state.points {
+        let gd = super::material::shear_rate(&p.grad_v);
+        let pr = p.stress.pressure();
+        mass += p.mass;
+        if pr <= 0.0 {
+            mfree += p.mass;
+            continue;
+        }
+        let i = super::material::inertial_number(gd, pr, m.grain_diameter, m.grain_density, m.i_max);
+        max = max.max(i);
+        if gd > thr {
+            mflow += p.mass;
+            sum += p.mass * i;
+            flowing.push((i, p.mass));
+        }
+    }
+    if flowing.is_empty() {
+        return InertialStats { max, stress_free_fraction: mfree / mass.max(1e-300), ..Default::default() };
+    }
+    flowing.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let k = ((flowing.len() as Real * 0.95).ceil() as usize).clamp(1, flowing.len()) - 1;
+    InertialStats { mean_flowing: sum / mflow, p95_flowing: flowing[k].0, max, flowing_fraction: mflow / mass, stress_free_fraction: mfree / mass }
+}
+
+/// Energies recorded in a sample [J/m] (figures.md D06/D07).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SampleEnergies {
+    /// E_p.
+    pub potential: Real,
+    /// E_k.
+    pub kinetic: Real,
+    /// E_kx.
+    pub kinetic_x: Real,
+    /// E_ky.
+    pub kinetic_y: Real,
+    /// Kinetic energy of the grid-interpolated point velocities (see `Energies`).
+    pub kinetic_grid: Real,
+    /// Elastic strain energy.
+    pub elastic: Real,
+    /// Cumulative plastic work.
+    pub plastic_work: Real,
+    /// Cumulative wall/base Coulomb friction work.
+    pub wall_friction: Real,
+    /// Cumulative wall/base normal (impact) work.
+    pub wall_normal: Real,
+}
+
+impl From<Energies> for SampleEnergies {
+    fn from(e: Energies) -> Self {
+        Self {
+            potential: e.potential,
+            kinetic: e.kinetic,
+            kinetic_x: e.kinetic_x,
+            kinetic_y: e.kinetic_y,
+            kinetic_grid: e.kinetic_grid,
+            elastic: e.elastic,
+            plastic_work: e.plastic_work,
+            wall_friction: e.wall_friction,
+            wall_normal: e.wall_normal,
+        }
+    }
+}
+
+/// Point fields at one time.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Snapshot {
+    /// Time [s].
+    pub t: Real,
+    /// Point ids.
+    pub id: Vec<u32>,
+    /// x [m].
+    pub x: Vec<Real>,
+    /// y [m].
+    pub y: Vec<Real>,
+    /// v_x [m/s].
+    pub vx: Vec<Real>,
+    /// v_y [m/s].
+    pub vy: Vec<Real>,
+    /// σ_xx [Pa].
+    pub sxx: Vec<Real>,
+    /// σ_yy [Pa].
+    pub syy: Vec<Real>,
+    /// σ_xy [Pa].
+    pub sxy: Vec<Real>,
+    /// Equivalent plastic strain [-].
+    pub eps_p: Vec<Real>,
+    /// Inertial number [-] (D08; computed for every model in collapse runs).
+    pub inertial: Vec<Real>,
+}
+
+/// Snapshot of a state (`inertial` is left as the μ(I) models store it; use
+/// [`snapshot_with`] to have it computed for every model).
+pub fn snapshot(state: &State) -> Snapshot {
+    let p = &state.points;
+    Snapshot {
+        t: state.t,
+        id: p.iter().map(|p| p.id.0).collect(),
+        x: p.iter().map(|p| p.x.x).collect(),
+        y: p.iter().map(|p| p.x.y).collect(),
+        vx: p.iter().map(|p| p.v.x).collect(),
+        vy: p.iter().map(|p| p.v.y).collect(),
+        sxx: p.iter().map(|p| p.stress.xx).collect(),
+        syy: p.iter().map(|p| p.stress.yy).collect(),
+        sxy: p.iter().map(|p| p.stress.xy).collect(),
+        eps_p: p.iter().map(|p| p.eps_p).collect(),
+        inertial: p.iter().map(|p| p.inertial).collect(),
+    }
+}
+
+/// Snapshot with the inertial number computed for every model.
+pub fn snapshot_with(state: &State, m: &super::params::Material) -> Snapshot {
+    let mut s = snapshot(state);
+    s.inertial = inertial_numbers(state, m);
+    s
+}
+
+/// Result of a collapse run.
+#[derive(Debug, Clone)]
+pub struct CollapseResult {
+    /// Geometry actually discretised.
+    pub spec: ColumnSpec,
+    /// Number of points.
+    pub points: usize,
+    /// Update scheme name.
+    pub scheme: &'static str,
+    /// Geostatic stage (None if skipped).
+    pub geostatic: Option<GeostaticReport>,
+    /// Time series.
+    pub series: Vec<Sample>,
+    /// Snapshots at the requested times.
+    pub snapshots: Vec<Snapshot>,
+    /// Final front.
+    pub final_front: Front,
+    /// ΔL = (L_f − L_0)/L_0 [-] (D01 main mass, links 1.5 × initial spacing).
+    pub runout: Real,
+    /// ΔL of the main mass with dilation-following links ([`front_of_dilated`]) [-]: less
+    /// sensitive to gaps opening in a thin deposit at coarse resolution.
+    pub runout_dilated: Real,
+    /// ΔL from the 99 % mass quantile of x (+ l_p) [-]: insensitive to gaps and stray points.
+    pub runout_q99: Real,
+    /// Whether the stop criterion was met (false: stopped at max_time).
+    pub stopped: bool,
+    /// Steps of the collapse stage.
+    pub steps: u64,
+    /// Wall-clock time of the collapse stage [s].
+    pub wall_s: Real,
+    /// Per-phase times (geostatic + collapse).
+    pub times: PhaseTimes,
+}
+
+/// Front of a state (D01).
+pub fn front_of(state: &State, lp: Real, spacing: Real) -> Front {
+    let n = state.points.len();
+    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    for p in &state.points {
+        x.push(p.x.x);
+        y.push(p.x.y);
+        m.push(p.mass);
+    }
+    let half = vec![lp; n];
+    front(&Body { x: &x, y: &y, half: &half, mass: &m }, Link::Distance(1.5 * spacing))
+}
+
+/// Front with links that follow the points' dilation: points i and j are linked when
+/// |x_i − x_j| ≤ 0.75 s (√J_i + √J_j) (= 1.5 s, the D01 rule, for undeformed points). A thin
+/// deposit whose points have spread apart (J ≫ 1 at the toe) stays one mass as long as the
+/// point volumes still tile it. L and H are still max(x + l_p), max(y + l_p).
+pub fn front_of_dilated(state: &State, lp: Real, spacing: Real) -> Front {
+    let n = state.points.len();
+    let (mut x, mut y, mut m, mut r) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    for p in &state.points {
+        x.push(p.x.x);
+        y.push(p.x.y);
+        m.push(p.mass);
+        r.push(0.75 * spacing * p.j.max(1.0).sqrt());
+    }
+    let idx = main_mass(&Body { x: &x, y: &y, half: &r, mass: &m }, Link::Contact { gap: 0.0 });
+    let total: Real = m.iter().sum();
+    let (mut length, mut height, mut mm) = (0.0 as Real, 0.0 as Real, 0.0);
+    for &i in &idx {
+        length = length.max(x[i] + lp);
+        height = height.max(y[i] + lp);
+        mm += m[i];
+    }
+    Front { length, height, n_main: idx.len(), mass_fraction: if total > 0.0 { mm / total } else { 0.0 } }
+}
+
+/// x below which the fraction `q` of the points' mass lies [m].
+pub fn mass_quantile_x(state: &State, q: Real) -> Real {
+    let mut xm: Vec<(Real, Real)> = state.points.iter().map(|p| (p.x.x, p.mass)).collect();
+    xm.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total: Real = xm.iter().map(|v| v.1).sum();
+    let mut acc = 0.0;
+    for (x, m) in &xm {
+        acc += m;
+        if acc >= q * total {
+            return *x;
+        }
+    }
+    xm.last().map(|v| v.0).unwrap_or(0.0)
+}
+
+/// Expected largest speed of a column collapse, √(2 g H_0) (figures.md c.3) [m/s].
+pub fn expected_v_max(spec: &ColumnSpec, g: Real) -> Real {
+    (2.0 * g * spec.h0).sqrt()
+}
+
+/// Geostatic stage, release, collapse until rest. Refuses (before any work) a fixed step
+/// above the CFL limit for v_max = √(2 g H_0) (`preflight`).
+pub fn collapse(params: &MpmParams, spec: ColumnSpec, opts: &CollapseOptions) -> Result<CollapseResult, MpmError> {
+    collapse_with_progress(params, spec, opts, &mut |_, _| {})
+}
+
+/// [`collapse`] calling `progress(sample, t_max)` after every recorded sample (for progress
+/// bars: simulated time `sample.t` out of at most `t_max` seconds).
+pub fn collapse_with_progress(
+    params: &MpmParams,
+    spec: ColumnSpec,
+    opts: &CollapseOptions,
+    progress: &mut dyn FnMut(&Sample, Real),
+) -> Result<CollapseResult, MpmError> {
+    let vmax = expected_v_max(&spec, params.gravity);
+    super::preflight::preflight(params, super::preflight::planned_dt(params, vmax), vmax)?;
+    let mut col = build(params, spec)?;
+    let geo = if opts.skip_geostatic {
+        None
+    } else {
+        Some(geostatic::run(&mut col.solver, &mut col.state, col.spec.h0)?)
+    };
+    release(&mut col);
+    run_collapse_with_progress(col, geo, params, opts, progress)
+}
+
+/// Run an already-built (and possibly loaded) column after release.
+pub fn run_collapse(col: Column, geo: Option<GeostaticReport>, params: &MpmParams, opts: &CollapseOptions) -> Result<CollapseResult, MpmError> {
+    run_collapse_with_progress(col, geo, params, opts, &mut |_, _| {})
+}
+
+/// [`run_collapse`] with a progress callback (see [`collapse_with_progress`]).
+pub fn run_collapse_with_progress(
+    mut col: Column,
+    geo: Option<GeostaticReport>,
+    params: &MpmParams,
+    opts: &CollapseOptions,
+    progress: &mut dyn FnMut(&Sample, Real),
+) -> Result<CollapseResult, MpmError> {
+    let g = params.gravity;
+    let tau = col.spec.tau_c(g);
+    let lp = params.half_width();
+    let s = params.spacing();
+    let el = *col.solver.elastic();
+    let e0 = energies(&col.state, &el, g);
+    let watch = EnergyWatch::new(&e0, params.energy_rise_tol);
+    let mut series = Vec::new();
+    let mut snapshots = Vec::new();
+    let mut snap_times: Vec<Real> = opts.snapshot_tau.iter().map(|t| t * tau).collect();
+    snap_times.sort_by(|a, b| a.total_cmp(b));
+    let mut next_snap = 0usize;
+    let mat = params.material.clone();
+    let record = |state: &State, series: &mut Vec<Sample>| -> Energies {
+        let e = energies(state, &el, g);
+        let f = front_of(state, lp, s);
+        let l_all = state.points.iter().map(|p| p.x.x + lp).fold(0.0, Real::max);
+        series.push(Sample {
+            t: state.t,
+            l: f.length,
+            h: f.height,
+            l_all,
+            main_fraction: f.mass_fraction,
+            l_dilated: front_of_dilated(state, lp, s).length,
+            l_q99: mass_quantile_x(state, 0.99) + lp,
+            e: e.into(),
+            inertial: inertial_stats(state, &mat, g),
+        });
+        e
+    };
+    record(&col.state, &mut series);
+    let clock = std::time::Instant::now();
+    let sample_dt = opts.sample_every_tau * tau;
+    let mut next_sample = sample_dt;
+    let mut stopped = false;
+    loop {
+        while next_snap < snap_times.len() && col.state.t >= snap_times[next_snap] {
+            snapshots.push(snapshot_with(&col.state, &params.material));
+            next_snap += 1;
+        }
+        let dt = col.solver.dt(&col.state);
+        col.solver.step(&mut col.state, dt)?;
+        if col.state.t >= next_sample {
+            next_sample += sample_dt;
+            let e = record(&col.state, &mut series);
+            if let Some(last) = series.last() {
+                progress(last, opts.max_time_tau * tau);
+            }
+            watch.check(&e, &col.state.points, col.state.step, col.state.t)?;
+            if col.state.t >= opts.min_time_tau * tau
+                && (e.kinetic_grid < opts.stop_ke_ratio * e0.potential || front_still(&series, opts, tau, e.kinetic_grid / e0.potential))
+            {
+                stopped = true;
+                break;
+            }
+        }
+        if col.state.t >= opts.max_time_tau * tau {
+            record(&col.state, &mut series);
+            break;
+        }
+    }
+    while next_snap < snap_times.len() {
+        snapshots.push(snapshot_with(&col.state, &params.material));
+        next_snap += 1;
+    }
+    let wall_s = clock.elapsed().as_secs_f64();
+    let final_front = front_of(&col.state, lp, s);
+    Ok(CollapseResult {
+        spec: col.spec,
+        points: col.state.points.len(),
+        scheme: col.solver.scheme(),
+        geostatic: geo,
+        series,
+        snapshots,
+        runout: (final_front.length - col.spec.l0) / col.spec.l0,
+        runout_dilated: (front_of_dilated(&col.state, lp, s).length - col.spec.l0) / col.spec.l0,
+        runout_q99: (mass_quantile_x(&col.state, 0.99) + lp - col.spec.l0) / col.spec.l0,
+        final_front,
+        stopped,
+        steps: col.state.step,
+        wall_s,
+        times: col.solver.times,
+    })
+}
+
+fn front_still(series: &[Sample], opts: &CollapseOptions, tau: Real, ke_ratio: Real) -> bool {
+    let Some(last) = series.last() else { return false };
+    if ke_ratio >= opts.still_ke_ratio || last.t < opts.still_tau * tau {
+        return false;
+    }
+    let t0 = last.t - opts.still_tau * tau;
+    series.iter().rev().take_while(|s| s.t >= t0).all(|s| (s.l - last.l).abs() < opts.still_tol && (s.h - last.h).abs() < opts.still_tol)
+}
+
+/// Points of a state as plain slices (for VTK output by the caller).
+pub fn positions(points: &[Point]) -> (Vec<Real>, Vec<Real>) {
+    (points.iter().map(|p| p.x.x).collect(), points.iter().map(|p| p.x.y).collect())
+}

@@ -1,0 +1,691 @@
+//! The explicit GIMP step (chapter 3 §"Solution scheme"), as named phases:
+//!
+//! `reset_grid` → `p2g` → `grid_update` → `g2p` → [`remap` (MUSL only)] → `update_stress` →
+//! `relocate`
+//!
+//! - `p2g`: mass, momentum, internal force −Σ V_p σ_p ∇φ_ip and gravity onto the 3 × 3 GIMP
+//!   stencil of every point.
+//! - `grid_update`: v* = v + Δt f/m (plus Cundall local damping in the geostatic stage), wall
+//!   constraints (boundary.rs), Δv = v* − v.
+//! - `g2p`: FLIP/PIC velocity update, displacement Δx = Δt Σ φ v*, and (USL) the velocity
+//!   gradient L = Σ v* ⊗ ∇φ.
+//! - `remap` (MUSL): momenta of the updated points mapped back to the grid, constrained, and
+//!   L taken from those velocities.
+//! - `update_stress`: J ← J det(I + ΔtL), V = V_0 J, Jaumann elastic trial, return mapping.
+//! - `relocate`: x ← x + Δx, watchdog checks (finite, J > 0, inside the grid), stencil base
+//!   of every point, bucket sort of the points by stencil band for the next p2g.
+//!
+//! All shape functions within a step are evaluated at the positions of the start of the step.
+//! g2p, update_stress and the move of relocate are per-point and run fused chunk by chunk in
+//! one parallel pass (`Solver::step`); their timers are apportioned from per-chunk timings.
+//!
+//! Energy of the wall constraints: booked in `boundary` (friction and normal parts).
+//! Nothing allocates inside a step: the grid, the sort buffers and the per-column work
+//! buffer are allocated once (`Solver::new`) or grow once to the number of points.
+//!
+//! Determinism. The grid is cut into bands of 2 node columns; a point belongs to the band of
+//! its first stencil column, so it writes only to that band and the next. Even bands are
+//! scattered in parallel (they own disjoint 4-column slices), then odd bands. Inside a band the
+//! points are visited in index order (stable counting sort). Every nodal sum is therefore
+//! accumulated in the same order whatever the number of threads: results are bit-identical
+//! for 1, 2, … threads, with no atomics and no per-thread grids.
+
+use super::boundary::{self, WallWork};
+use super::error::MpmError;
+use super::grid::{Grid, Node};
+use super::material::{self, Elastic, McSurface};
+use super::params::{Model, MpmParams, Scheme, StepRule, Wall};
+use super::particles::Point;
+use super::shape::{Stencil, first_node};
+use crate::math::{Mat2, Real, Vec2};
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Node columns per band of the parallel scatter.
+const BAND: usize = 2;
+
+/// Cumulative dissipated/removed energies [J/m].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Ledger {
+    /// Coulomb friction work at the walls.
+    pub wall_friction: Real,
+    /// Normal (impact/support) work at the walls.
+    pub wall_normal: Real,
+    /// Work removed by geostatic damping.
+    pub damping: Real,
+}
+
+/// The solver's evolving state.
+#[derive(Debug, Clone)]
+pub struct State {
+    /// Material points.
+    pub points: Vec<Point>,
+    /// Time [s].
+    pub t: Real,
+    /// Steps taken.
+    pub step: u64,
+    /// Boundary and damping work.
+    pub ledger: Ledger,
+    /// Size of the last step [s] (0 before the first).
+    pub last_dt: Real,
+}
+
+impl State {
+    /// A state at t = 0.
+    pub fn new(points: Vec<Point>) -> Self {
+        Self { points, t: 0.0, step: 0, ledger: Ledger::default(), last_dt: 0.0 }
+    }
+}
+
+/// Accumulated wall-clock time of each phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PhaseTimes {
+    /// reset_grid.
+    pub reset_grid: Duration,
+    /// p2g (and the MUSL re-map scatter).
+    pub p2g: Duration,
+    /// grid_update.
+    pub grid_update: Duration,
+    /// g2p.
+    pub g2p: Duration,
+    /// update_stress (including the MUSL gradient gather).
+    pub update_stress: Duration,
+    /// relocate (move, checks, sort).
+    pub relocate: Duration,
+}
+
+impl PhaseTimes {
+    /// Total.
+    pub fn total(&self) -> Duration {
+        self.reset_grid + self.p2g + self.grid_update + self.g2p + self.update_stress + self.relocate
+    }
+    /// (name, seconds) pairs, in phase order.
+    pub fn as_list(&self) -> [(&'static str, f64); 6] {
+        [
+            ("reset_grid", self.reset_grid.as_secs_f64()),
+            ("p2g", self.p2g.as_secs_f64()),
+            ("grid_update", self.grid_update.as_secs_f64()),
+            ("g2p", self.g2p.as_secs_f64()),
+            ("update_stress", self.update_stress.as_secs_f64()),
+            ("relocate", self.relocate.as_secs_f64()),
+        ]
+    }
+}
+
+/// Explicit GIMP solver: owns the grid and scratch only; the state comes in by `&mut`.
+#[derive(Debug, Clone)]
+pub struct Solver {
+    /// Background grid.
+    pub grid: Grid,
+    /// Active walls (the geostatic stage adds a gate).
+    pub walls: Vec<Wall>,
+    /// Cundall local damping coefficient (0 during flow).
+    pub damping: Real,
+    /// FLIP fraction in use (from the parameters; the geostatic stage uses 0 = PIC, which
+    /// also removes the velocity modes FLIP keeps invisible to the grid).
+    pub flip: Real,
+    /// Per-phase timers.
+    pub times: PhaseTimes,
+    params: MpmParams,
+    elastic: Elastic,
+    surface: McSurface,
+    lp: Real,
+    // Scratch (allocated once).
+    order: Vec<u32>,
+    band_start: Vec<u32>,
+    key: Vec<u32>,
+    cursor: Vec<u32>,
+    col_work: Vec<(WallWork, Real)>,
+    sorted_len: usize,
+    /// Whether m, p, f of every node are zero (the previous step cleared them on its last
+    /// pass over the grid, so `reset_grid` has nothing to do).
+    grid_clean: bool,
+}
+
+impl Solver {
+    /// A solver on `grid` with `walls`. Fails on invalid parameters.
+    pub fn new(params: &MpmParams, grid: Grid, walls: Vec<Wall>) -> Result<Self, MpmError> {
+        let issues = params.validate();
+        if !issues.is_empty() {
+            return Err(MpmError::InvalidParams(issues));
+        }
+        let m = &params.material;
+        let nb = grid.nx.div_ceil(BAND);
+        let nx = grid.nx;
+        Ok(Self {
+            grid,
+            walls,
+            damping: 0.0,
+            flip: params.flip,
+            times: PhaseTimes::default(),
+            params: params.clone(),
+            elastic: Elastic::new(m.young_pa, m.poisson),
+            surface: material::surface_of(m),
+            lp: params.half_width(),
+            order: Vec::new(),
+            band_start: vec![0; nb + 1],
+            key: Vec::new(),
+            cursor: Vec::with_capacity(nb),
+            col_work: vec![(WallWork::default(), 0.0); nx],
+            sorted_len: usize::MAX,
+            grid_clean: false,
+        })
+    }
+
+    /// Parameters in use.
+    pub fn params(&self) -> &MpmParams {
+        &self.params
+    }
+    /// Elastic constants.
+    pub fn elastic(&self) -> &Elastic {
+        &self.elastic
+    }
+    /// GIMP half-width l_p [m].
+    pub fn half_width(&self) -> Real {
+        self.lp
+    }
+    /// Name of the update scheme.
+    pub fn scheme(&self) -> &'static str {
+        self.params.scheme.name()
+    }
+
+    /// Time step for the next step: fixed, or CFL Δt = C h/(c_p + max|v|).
+    pub fn dt(&self, state: &State) -> Real {
+        match self.params.step {
+            StepRule::Fixed { dt } => dt,
+            StepRule::Cfl { courant, dt_max } => self.cfl_dt(state, courant).min(dt_max),
+        }
+    }
+
+    /// Δt = C h/(c_p + max|v_p|) [s]. c_p does not depend on the point's dilation because
+    /// the elastic moduli scale with the current density (see `update_stress`).
+    pub fn cfl_dt(&self, state: &State, courant: Real) -> Real {
+        let vmax = state.points.par_iter().map(|p| p.v.norm()).reduce(|| 0.0, Real::max);
+        courant * self.grid.h / (self.params.material.p_wave_speed() + vmax)
+    }
+
+    /// Diagnostic: scatter the points onto a fresh grid (phase p2g only) and return the total
+    /// nodal mass [kg/m], which must equal the total point mass (partition of unity).
+    pub fn grid_mass(&mut self, state: &mut State) -> Result<Real, MpmError> {
+        if self.sorted_len != state.points.len() {
+            self.sort(&mut state.points, state.step, state.t)?;
+        }
+        self.reset_grid();
+        self.p2g::<true>(&state.points);
+        self.grid_clean = false;
+        Ok(self.grid.nodes.iter().map(|n| n.m).sum())
+    }
+
+    /// Forget the cached sort/stencil bases: call after moving points (or swapping the state)
+    /// outside [`Solver::step`]. A state with a different number of points is detected
+    /// automatically.
+    pub fn invalidate(&mut self) {
+        self.sorted_len = usize::MAX;
+    }
+
+    /// Advance by one step of size `dt`.
+    ///
+    /// The point-side phases (g2p → update_stress → the move of relocate) run fused, chunk
+    /// by chunk, in one parallel pass (one fork-join instead of three, and each chunk of
+    /// points stays in cache); each chunk times its phases and the pass's wall time is
+    /// apportioned to them in proportion. Under MUSL the velocity update (g2p) runs first as
+    /// its own pass, then the re-map, then the fused gradient + stress + move pass.
+    pub fn step(&mut self, state: &mut State, dt: Real) -> Result<(), MpmError> {
+        if self.sorted_len != state.points.len() {
+            self.sort(&mut state.points, state.step, state.t)?;
+        }
+        let t0 = Instant::now();
+        if !self.grid_clean {
+            self.reset_grid();
+        }
+        self.grid_clean = false;
+        let t1 = Instant::now();
+        self.p2g::<true>(&state.points);
+        let t2 = Instant::now();
+        let musl = self.params.scheme == Scheme::Musl;
+        self.grid_update(dt, &mut state.ledger, !musl);
+        let t3 = Instant::now();
+        self.times.reset_grid += t1 - t0;
+        self.times.p2g += t2 - t1;
+        self.times.grid_update += t3 - t2;
+        state.t += dt;
+        state.step += 1;
+        state.last_dt = dt;
+        self.grid_clean = true; // grid_update (USL) or remap (MUSL) leaves m, p, f zero
+        let gather = if musl {
+            let t4 = Instant::now();
+            self.g2p(&mut state.points, dt);
+            let t5 = Instant::now();
+            self.remap(&state.points);
+            let t6 = Instant::now();
+            self.times.g2p += t5 - t4;
+            self.times.p2g += t6 - t5;
+            Gather::GradientOnly
+        } else {
+            Gather::Full
+        };
+        self.point_pass(state, dt, gather)
+    }
+
+    fn reset_grid(&mut self) {
+        self.grid.nodes.par_chunks_mut(4096).for_each(|c| c.fill(Default::default()));
+    }
+
+    /// Scatter onto the grid in the deterministic band order. `full`: mass, momentum and
+    /// forces (`FULL`); otherwise momentum only (MUSL re-map, mass already there).
+    fn p2g<const FULL: bool>(&mut self, points: &[Point]) {
+        let ny = self.grid.ny;
+        let (ox, oy, h, lp) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.lp);
+        let g = self.params.gravity;
+        let order = &self.order;
+        let start = &self.band_start;
+        let nb = start.len() - 1;
+        for phase in 0..2usize {
+            let len = self.grid.nodes.len();
+            let nodes = &mut self.grid.nodes[(phase * BAND * ny).min(len)..];
+            nodes.par_chunks_mut(2 * BAND * ny).enumerate().for_each(|(k, chunk)| {
+                let b = 2 * k + phase;
+                if b >= nb {
+                    return;
+                }
+                let col0 = b * BAND;
+                for &pi in &order[start[b] as usize..start[b + 1] as usize] {
+                    let p = &points[pi as usize];
+                    let st = Stencil::at(p.x.x, p.x.y, p.base, ox, oy, h, lp);
+                    let m = p.mass;
+                    let mv = p.v * m;
+                    let (vxx, vyy, vxy) = (-p.vol * p.stress.xx, -p.vol * p.stress.yy, -p.vol * p.stress.xy);
+                    let mg = -m * g;
+                    for a in 0..3 {
+                        let base = (st.i0 + a - col0) * ny + st.j0;
+                        let (wa, da) = (st.wx[a], st.dx[a]);
+                        let column = &mut chunk[base..base + 3];
+                        for (bb, n) in column.iter_mut().enumerate() {
+                            let w = wa * st.wy[bb];
+                            let gx = da * st.wy[bb];
+                            let gy = wa * st.dy[bb];
+                            n.p += mv * w;
+                            if FULL {
+                                n.m += w * m;
+                                n.f.x += vxx * gx + vxy * gy;
+                                n.f.y += vxy * gx + vyy * gy + w * mg;
+                            }
+                        }
+                    }
+                }
+            });
+        }
+    }
+
+    /// Nodal velocity update with damping and wall constraints; books wall work. Clears p and
+    /// f of every node, and m too if `clear_mass` (USL: nothing else reads them this step;
+    /// MUSL's re-map still needs m and clears it itself), so the next step skips reset_grid.
+    fn grid_update(&mut self, dt: Real, ledger: &mut Ledger, clear_mass: bool) {
+        let ny = self.grid.ny;
+        let (origin, h) = (self.grid.origin, self.grid.h);
+        let walls = &self.walls;
+        let alpha = self.damping;
+        let mmin = self.mass_floor();
+        self.grid
+            .nodes
+            .par_chunks_mut(ny)
+            .zip(self.col_work.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (col, work))| {
+                let mut ww = WallWork::default();
+                let mut wd = 0.0;
+                for (j, n) in col.iter_mut().enumerate() {
+                    let (m, p, f0) = (n.m, n.p, n.f);
+                    n.p = Vec2::zeros();
+                    n.f = Vec2::zeros();
+                    if clear_mass {
+                        n.m = 0.0;
+                    }
+                    if m <= mmin {
+                        n.v = Vec2::zeros();
+                        n.dv = Vec2::zeros();
+                        continue;
+                    }
+                    let v0 = p / m;
+                    let mut f = f0;
+                    if alpha > 0.0 {
+                        // Cundall local damping: f_k ← f_k − α |f_k| sign(v_k).
+                        for k in 0..2 {
+                            let d = alpha * f[k].abs() * sgn(v0[k]);
+                            f[k] -= d;
+                            wd += d * v0[k] * dt;
+                        }
+                    }
+                    let mut v = v0 + f * (dt / m);
+                    if !walls.is_empty() {
+                        let x = Vec2::new(origin.x + i as Real * h, origin.y + j as Real * h);
+                        ww.add(boundary::constrain(walls, x, m, v0, &mut v, 1e-6 * h));
+                    }
+                    n.dv = v - v0;
+                    n.v = v;
+                }
+                *work = (ww, wd);
+            });
+        for (w, d) in &self.col_work {
+            ledger.wall_friction += w.friction;
+            ledger.wall_normal += w.normal;
+            ledger.damping += d;
+        }
+    }
+
+    fn mass_floor(&self) -> Real {
+        // Nodes lighter than 1e-9 of a point's mass carry no meaningful velocity.
+        1e-9 * self.params.material.density * self.params.spacing().powi(2)
+    }
+
+    /// MUSL phase g2p on its own: velocity update and step displacement.
+    fn g2p(&mut self, points: &mut [Point], dt: Real) {
+        let k = self.kernel(dt);
+        let nodes = &self.grid.nodes;
+        points.par_chunks_mut(1024).for_each(|chunk| {
+            for p in chunk {
+                k.g2p(p, nodes, false);
+            }
+        });
+    }
+
+    /// MUSL: map the updated point momenta back to the grid and constrain them.
+    /// Leaves m, p, f zero for the next step (p was cleared by grid_update).
+    fn remap(&mut self, points: &[Point]) {
+        self.p2g::<false>(points);
+        let ny = self.grid.ny;
+        let (origin, h) = (self.grid.origin, self.grid.h);
+        let walls = &self.walls;
+        let mmin = self.mass_floor();
+        self.grid.nodes.par_chunks_mut(ny).enumerate().for_each(|(i, col)| {
+            for (j, n) in col.iter_mut().enumerate() {
+                let (m, p) = (n.m, n.p);
+                n.m = 0.0;
+                n.p = Vec2::zeros();
+                if m <= mmin {
+                    n.v = Vec2::zeros();
+                    continue;
+                }
+                let mut v = p / m;
+                if !walls.is_empty() {
+                    let x = Vec2::new(origin.x + i as Real * h, origin.y + j as Real * h);
+                    boundary::project(walls, x, &mut v, 1e-6 * h);
+                }
+                n.v = v;
+            }
+        });
+    }
+
+    fn kernel(&self, dt: Real) -> Kernel {
+        let m = &self.params.material;
+        Kernel {
+            ox: self.grid.origin.x,
+            oy: self.grid.origin.y,
+            h: self.grid.h,
+            lp: self.lp,
+            ny: self.grid.ny,
+            nb: self.band_start.len() - 1,
+            flip: self.flip,
+            dt,
+            el: self.elastic,
+            surf: self.surface,
+            model: m.model,
+            d: m.grain_diameter,
+            rho_s: m.grain_density,
+            i_max: m.i_max,
+        }
+    }
+
+    /// Fused point pass: g2p (or the MUSL gradient gather) → update_stress → move + checks +
+    /// band key; then the counting sort (phase relocate).
+    fn point_pass(&mut self, state: &mut State, dt: Real, gather: Gather) -> Result<(), MpmError> {
+        let k = self.kernel(dt);
+        let grid = &self.grid;
+        let nodes = &grid.nodes;
+        self.key.resize(state.points.len(), 0);
+        let clock = Instant::now();
+        let (cpu, bad) = state
+            .points
+            .par_chunks_mut(CHUNK)
+            .zip(self.key.par_chunks_mut(CHUNK))
+            .map(|(pc, kc)| {
+                let t0 = Instant::now();
+                match gather {
+                    Gather::Full => pc.iter_mut().for_each(|p| k.g2p(p, nodes, true)),
+                    Gather::GradientOnly => pc.iter_mut().for_each(|p| k.gradient(p, nodes)),
+                }
+                let t1 = Instant::now();
+                k.update_stress(pc);
+                let t2 = Instant::now();
+                let bad = k.relocate(pc, kc, grid);
+                let t3 = Instant::now();
+                ([t1 - t0, t2 - t1, t3 - t2], bad)
+            })
+            .reduce(
+                || ([Duration::ZERO; 3], false),
+                |a, b| ([a.0[0] + b.0[0], a.0[1] + b.0[1], a.0[2] + b.0[2]], a.1 | b.1),
+            );
+        let wall = clock.elapsed();
+        let tot = (cpu[0] + cpu[1] + cpu[2]).as_secs_f64().max(1e-12);
+        let share = |d: Duration| wall.mul_f64(d.as_secs_f64() / tot);
+        match gather {
+            Gather::Full => self.times.g2p += share(cpu[0]),
+            Gather::GradientOnly => self.times.update_stress += share(cpu[0]),
+        }
+        self.times.update_stress += share(cpu[1]);
+        let t = Instant::now();
+        if bad {
+            super::watchdog::check_points(&state.points, &self.grid, self.lp, state.step, state.t)?;
+        }
+        self.counting_sort(state.points.len());
+        self.times.relocate += share(cpu[2]) + t.elapsed();
+        Ok(())
+    }
+
+    /// Check the points, set their stencil bases and band keys, then the counting sort.
+    fn sort(&mut self, points: &mut [Point], step: u64, t: Real) -> Result<(), MpmError> {
+        super::watchdog::check_points(points, &self.grid, self.lp, step, t)?;
+        let (ox, oy, h, lp) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.lp);
+        let nb = self.band_start.len() - 1;
+        self.key.resize(points.len(), 0);
+        self.key.par_chunks_mut(4096).zip(points.par_chunks_mut(4096)).for_each(|(k, p)| {
+            for (k, p) in k.iter_mut().zip(p) {
+                *k = set_base(p, ox, oy, h, lp, nb);
+            }
+        });
+        self.counting_sort(points.len());
+        Ok(())
+    }
+
+    /// Stable counting sort of the point indices by band key.
+    fn counting_sort(&mut self, n: usize) {
+        let nb = self.band_start.len() - 1;
+        self.order.resize(n, 0);
+        let start = &mut self.band_start;
+        start.fill(0);
+        for &k in &self.key {
+            start[k as usize + 1] += 1;
+        }
+        for b in 0..nb {
+            start[b + 1] += start[b];
+        }
+        let fill = &mut self.cursor;
+        fill.clear();
+        fill.extend_from_slice(&start[..nb]);
+        for (i, &k) in self.key.iter().enumerate() {
+            let c = &mut fill[k as usize];
+            self.order[*c as usize] = i as u32;
+            *c += 1;
+        }
+        self.sorted_len = n;
+    }
+}
+
+/// Points per chunk of the fused point pass (≈ 200 kB of points: stays in L2).
+const CHUNK: usize = 1024;
+
+/// What the fused point pass gathers from the grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Gather {
+    /// USL: velocity update, displacement and velocity gradient.
+    Full,
+    /// MUSL: velocity gradient only (velocities were updated before the re-map).
+    GradientOnly,
+}
+
+/// Everything the per-point phases need, copied once per step.
+#[derive(Debug, Clone, Copy)]
+struct Kernel {
+    ox: Real,
+    oy: Real,
+    h: Real,
+    lp: Real,
+    ny: usize,
+    nb: usize,
+    flip: Real,
+    dt: Real,
+    el: Elastic,
+    surf: McSurface,
+    model: Model,
+    d: Real,
+    rho_s: Real,
+    i_max: Real,
+}
+
+impl Kernel {
+    /// g2p for one point: FLIP/PIC velocity, displacement, optionally the velocity gradient.
+    #[inline(always)]
+    fn g2p(&self, p: &mut Point, nodes: &[Node], want_grad: bool) {
+        let st = Stencil::at(p.x.x, p.x.y, p.base, self.ox, self.oy, self.h, self.lp);
+        let ny = self.ny;
+        let mut vg = Vec2::zeros();
+        let mut dv = Vec2::zeros();
+        let mut l = Mat2::zeros();
+        for a in 0..3 {
+            let base = (st.i0 + a) * ny + st.j0;
+            for (b, n) in nodes[base..base + 3].iter().enumerate() {
+                let w = st.wx[a] * st.wy[b];
+                vg += n.v * w;
+                dv += n.dv * w;
+                if want_grad {
+                    let gx = st.dx[a] * st.wy[b];
+                    let gy = st.wx[a] * st.dy[b];
+                    l[(0, 0)] += n.v.x * gx;
+                    l[(0, 1)] += n.v.x * gy;
+                    l[(1, 0)] += n.v.y * gx;
+                    l[(1, 1)] += n.v.y * gy;
+                }
+            }
+        }
+        p.v = (p.v + dv) * self.flip + vg * (1.0 - self.flip);
+        p.dx = vg * self.dt;
+        if want_grad {
+            p.grad_v = l;
+        }
+    }
+
+    /// MUSL: velocity gradient from the re-mapped nodal velocities.
+    #[inline(always)]
+    fn gradient(&self, p: &mut Point, nodes: &[Node]) {
+        let st = Stencil::at(p.x.x, p.x.y, p.base, self.ox, self.oy, self.h, self.lp);
+        let mut l = Mat2::zeros();
+        for a in 0..3 {
+            let base = (st.i0 + a) * self.ny + st.j0;
+            for (b, n) in nodes[base..base + 3].iter().enumerate() {
+                let gx = st.dx[a] * st.wy[b];
+                let gy = st.wx[a] * st.dy[b];
+                l[(0, 0)] += n.v.x * gx;
+                l[(0, 1)] += n.v.x * gy;
+                l[(1, 0)] += n.v.y * gx;
+                l[(1, 1)] += n.v.y * gy;
+            }
+        }
+        p.grad_v = l;
+    }
+
+    /// Kinematics (J, volume) and the constitutive update of a chunk of points; the model
+    /// is matched once per chunk.
+    ///
+    /// Density-scaled moduli: a point uses E V_0/V (ν unchanged), so its P-wave speed
+    /// √(M/ρ) is that of the undeformed material whatever its dilation. In the bulk
+    /// J = V/V_0 stays within a few per mil of 1 (ψ = 0, stiff compared with ρgH) and nothing
+    /// changes; at a thinning front, points dilate several-fold (J ≈ 8 seen at the a = 0.4
+    /// toe) and with constant moduli their wave speed √J c_p would break the CFL limit,
+    /// ejecting points. UNSPEC in the chapter; documented here as our choice.
+    #[inline(always)]
+    fn update_stress(&self, points: &mut [Point]) {
+        let (el0, surf, dt) = (self.el, self.surf, self.dt);
+        let kin = |p: &mut Point| -> Elastic {
+            let j = p.j * (Mat2::identity() + p.grad_v * dt).determinant();
+            p.j = j;
+            p.vol = p.vol0 * j;
+            el0.scaled_by_jacobian(j)
+        };
+        match self.model {
+            Model::Elastic => points.iter_mut().for_each(|p| {
+                let el = kin(p);
+                p.stress = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
+            }),
+            Model::MohrCoulomb => points.iter_mut().for_each(|p| {
+                let el = kin(p);
+                let tr = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
+                let u = material::mohr_coulomb(tr, &el, &surf);
+                p.stress = u.stress;
+                p.eps_p += u.d_eps_p;
+                p.work_p += u.plastic_work * p.vol;
+            }),
+            model @ (Model::MuILinear { .. } | Model::MuIJop { .. }) => points.iter_mut().for_each(|p| {
+                let el = kin(p);
+                let gd = material::shear_rate(&p.grad_v);
+                let i = material::inertial_number(gd, p.stress.pressure(), self.d, self.rho_s, self.i_max);
+                let mu = material::mu_of_i(&model, i).unwrap_or(0.0);
+                p.inertial = i;
+                p.mu = mu;
+                let tr = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
+                let u = material::mohr_coulomb(tr, &el, &surf.with_mu(mu));
+                p.stress = u.stress;
+                p.eps_p += u.d_eps_p;
+                p.work_p += u.plastic_work * p.vol;
+            }),
+        }
+    }
+
+    /// Move a chunk of points, flag anything the watchdog would reject, set stencil bases and
+    /// band keys. Returns whether a point is bad.
+    #[inline(always)]
+    fn relocate(&self, points: &mut [Point], keys: &mut [u32], grid: &Grid) -> bool {
+        let mut bad = false;
+        for (p, k) in points.iter_mut().zip(keys.iter_mut()) {
+            p.x += p.dx;
+            let sum = p.v.x + p.v.y + p.stress.xx + p.stress.yy + p.stress.xy + p.stress.zz;
+            let ok = p.x.x.is_finite() && p.x.y.is_finite() && sum.is_finite() && p.vol > 0.0 && grid.contains(p.x, self.lp);
+            if !ok {
+                bad = true;
+                *k = 0;
+                continue;
+            }
+            *k = set_base(p, self.ox, self.oy, self.h, self.lp, self.nb);
+        }
+        bad
+    }
+}
+
+/// Store the stencil base of a point (valid position assumed) and return its band.
+#[inline(always)]
+fn set_base(p: &mut Point, ox: Real, oy: Real, h: Real, lp: Real, nb: usize) -> u32 {
+    let i0 = first_node((p.x.x - ox) / h, lp / h).max(0) as usize;
+    let j0 = first_node((p.x.y - oy) / h, lp / h).max(0) as usize;
+    p.base = [i0 as u32, j0 as u32];
+    ((i0 / BAND).min(nb - 1)) as u32
+}
+
+#[inline(always)]
+fn sgn(x: Real) -> Real {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,476 @@
+//! MPM stage kinds: `mpm-geostatic` (fig4-04), `mpm-collapse` (column collapse time
+//! series) and `mpm-work-precision` (run-out error against wall time over PPC × cell size
+//! × Courant number).
+//!
+//! Multi-scale link: when a stage declares the inputs `shear` (DEM periodic shear test,
+//! scalar `friction_angle_deg`) and/or `compression` (DEM confined compression, scalar
+//! `youngs_modulus_pa`), those measured values replace table 4.3's φ and E — so a change
+//! to a DEM parameter re-runs these stages through the DAG. `use_dem_calibration: false`
+//! keeps the table values for comparison.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Kind, Validate, decode, typed};
+use crate::mpm::column::{CollapseOptions, CollapseResult, ColumnSpec, collapse, fig4_04};
+use crate::mpm::{MpmParams, StepRule};
+use crate::pipeline::context::{Claim, Output, StageCtx, frame};
+use crate::report::plot::{Chart, Series, Style, footer};
+use crate::report::snapshot::{Field, Segment, Shape, Snapshot};
+use crate::validate::{Checker, Issue};
+
+/// Inject the DEM-calibrated friction angle and modulus; returns a note for the report.
+fn calibrate(ctx: &StageCtx, p: &mut MpmParams, enabled: bool) -> anyhow::Result<String> {
+    if !enabled {
+        return Ok(format!("table 4.3 values: φ = {}°, E = {:.3e} Pa (DEM calibration disabled)", p.material.friction_deg, p.material.young_pa));
+    }
+    let mut parts = Vec::new();
+    if let Some(s) = ctx.input_opt("shear") {
+        p.material.friction_deg = s.scalar("friction_angle_deg")?;
+        parts.push(format!("φ = {:.2}° from `{}`", p.material.friction_deg, s.id));
+    } else {
+        parts.push(format!("φ = {}° (table 4.3)", p.material.friction_deg));
+    }
+    if let Some(c) = ctx.input_opt("compression") {
+        p.material.young_pa = c.scalar("youngs_modulus_pa")?;
+        parts.push(format!("E = {:.3e} Pa from `{}`", p.material.young_pa, c.id));
+    } else {
+        parts.push(format!("E = {:.3e} Pa (table 4.3)", p.material.young_pa));
+    }
+    Ok(parts.join(", "))
+}
+
+/// Largest speed the validation-time pre-flight expects: √(2 g H_0) of the tallest
+/// column (a = 10, H_0 ≈ 0.197 m), figures.md c.3.
+const PREFLIGHT_V_MAX: f64 = 1.97;
+
+fn check_mpm(p: &MpmParams, c: &mut Checker) {
+    for i in p.validate() {
+        c.fail(&format!("mpm.{}", i.key), i.value, &i.allowed);
+    }
+    if !c.issues.is_empty() {
+        return;
+    }
+    let dt = crate::mpm::preflight::planned_dt(p, PREFLIGHT_V_MAX);
+    if let Err(e) = crate::mpm::preflight::preflight(p, dt, PREFLIGHT_V_MAX) {
+        c.fail("mpm.step", format!("{dt:.3e} s"), &format!("a stable step — {e}. `granrepro run --explain` prints the CFL table"));
+    }
+}
+
+/// `--explain`: the CFL pre-flight table of an MPM stage.
+fn explain_mpm(v: &serde_json::Value) -> String {
+    let p: MpmParams = v.get("mpm").cloned().and_then(|d| serde_json::from_value(d).ok()).unwrap_or_default();
+    let dt = crate::mpm::preflight::planned_dt(&p, PREFLIGHT_V_MAX);
+    match crate::mpm::preflight::preflight(&p, dt, PREFLIGHT_V_MAX) {
+        Ok(r) => format!("{r}"),
+        Err(e) => format!("refused: {e}"),
+    }
+}
+
+/// Parameters of an `mpm-geostatic` stage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GeostaticParams {
+    /// Solver and material (table 4.3 by default).
+    pub mpm: MpmParams,
+    /// Take φ and E from the DEM calibration inputs when declared.
+    pub use_dem_calibration: bool,
+    /// Cells shown in the zoomed mesh view (fig4-04a).
+    pub zoom_cells: usize,
+    /// Allowed relative error of the base stress (claim `geostatic-stress`).
+    pub tolerance: f64,
+}
+
+impl Default for GeostaticParams {
+    fn default() -> Self {
+        GeostaticParams { mpm: MpmParams::default(), use_dem_calibration: true, zoom_cells: 4, tolerance: 0.02 }
+    }
+}
+
+impl Validate for GeostaticParams {
+    fn validate(&self) -> Vec<Issue> {
+        let mut c = Checker::new("");
+        check_mpm(&self.mpm, &mut c);
+        c.check(self.zoom_cells >= 1 && self.zoom_cells <= 100, "zoom_cells", self.zoom_cells, "an integer in [1, 100]");
+        c.in_open("tolerance", self.tolerance, 0.0, 1.0);
+        c.issues
+    }
+}
+
+fn run_geostatic(ctx: &StageCtx) -> anyhow::Result<Output> {
+    let mut p: GeostaticParams = decode(ctx)?;
+    let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
+    let g = fig4_04(&p.mpm)?;
+    let mut out = Output::default();
+    out.note(format!("a = 1 column, {} material points, h = {} m, {} PPC; {note}; geostatic stage: gravity loading with local damping {} until E_k/E_p < {:.0e} ({} steps, {:.4} s simulated), gate as a roller.",
+        g.x.len(), p.mpm.cell_size, p.mpm.ppc, p.mpm.geostatic.damping, p.mpm.geostatic.ke_tol, g.report.steps, g.report.time));
+    out.table("table", frame(vec![("x_m", g.x.clone()), ("y_m", g.y.clone()), ("sigma_yy_pa", g.sigma_yy.clone()), ("sigma_xx_pa", g.sigma_xx.clone())])?);
+    // σ_yy profile along the centre line vs the analytic −ρg(H_0 − y).
+    let s = p.mpm.spacing();
+    let xc = g.spec.l0 / 2.0;
+    let mut prof: Vec<(f64, f64)> = g.x.iter().zip(&g.y).zip(&g.sigma_yy).filter(|((x, _), _)| (**x - xc).abs() <= s).map(|((_, y), syy)| (*y, *syy)).collect();
+    prof.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rho_g = p.mpm.material.density * p.mpm.gravity;
+    out.table("profile", frame(vec![
+        ("y_m", prof.iter().map(|v| v.0).collect()),
+        ("sigma_yy_pa", prof.iter().map(|v| v.1).collect()),
+        ("sigma_yy_analytic_pa", prof.iter().map(|v| -rho_g * (g.spec.h0 - v.0)).collect()),
+    ])?);
+    out.scalar("l0_m", g.spec.l0)
+        .scalar("h0_m", g.spec.h0)
+        .scalar("points", g.x.len() as f64)
+        .scalar("base_sigma_yy_pa", g.base_sigma_yy)
+        .scalar("base_sigma_yy_analytic_pa", g.base_sigma_yy_analytic)
+        .scalar("base_relative_error", g.base_error)
+        .scalar("rho_g_h0_pa", rho_g * g.spec.h0)
+        .scalar("friction_angle_deg", p.mpm.material.friction_deg)
+        .scalar("youngs_modulus_pa", p.mpm.material.young_pa)
+        .scalar("geostatic_steps", g.report.steps as f64);
+    out.claims.push(Claim::rel(
+        "geostatic-stress",
+        "σ_yy at the base = −ρg(H_0 − y) (fig4-04b; max ≈ ρgH_0 = 1.18 kPa for H_0 = 62.4 mm)",
+        g.base_sigma_yy_analytic,
+        g.base_sigma_yy,
+        p.tolerance,
+    ));
+    let smin = g.sigma_yy.iter().cloned().fold(f64::INFINITY, f64::min);
+    let half = vec![g.half_width; g.x.len()];
+    let walls = vec![
+        Segment { a: (0.0, 0.0), b: (0.0, g.spec.h0 * 1.1), color: "black", width: 2.5, dashed: false },
+        Segment { a: (0.0, 0.0), b: (g.spec.l0 * 1.15, 0.0), color: "black", width: 2.5, dashed: false },
+        Segment { a: (g.spec.l0, 0.0), b: (g.spec.l0, g.spec.h0 * 1.1), color: "#666", width: 1.5, dashed: true },
+    ];
+    let snap = Snapshot {
+        title: ctx.caption.clone().unwrap_or_else(|| "Initial vertical stress".into()),
+        footer: footer(&ctx.profile, &format!("base σ_yy {:.1} Pa vs −ρg(H_0−y) {:.1} Pa ({:.2} %)", g.base_sigma_yy, g.base_sigma_yy_analytic, 100.0 * g.base_error)),
+        x: &g.x,
+        y: &g.y,
+        half: &half,
+        shape: Shape::Square,
+        field: Some(Field { values: &g.sigma_yy, label: "σ_yy [Pa] (compression negative)".into(), range: (smin, 0.0) }),
+        black: None,
+        segments: walls.clone(),
+        view: None,
+        width_px: 520.0,
+    };
+    out.figure("figure", snap.to_svg());
+    // fig4-04a: corner zoom with the mesh.
+    let h = p.mpm.cell_size;
+    let z = p.zoom_cells as f64 * h;
+    let mut segs = Vec::new();
+    for k in 0..=p.zoom_cells {
+        let v = k as f64 * h;
+        segs.push(Segment { a: (v, 0.0), b: (v, z), color: "#999", width: 1.0, dashed: false });
+        segs.push(Segment { a: (0.0, v), b: (z, v), color: "#999", width: 1.0, dashed: false });
+    }
+    segs.extend(walls);
+    let dots = vec![g.half_width * 0.25; g.x.len()];
+    let mesh = Snapshot {
+        title: format!("Material points in the mesh: {} per cell, cell size {} m (corner of the a = 1 column)", p.mpm.ppc, h),
+        footer: footer(&ctx.profile, ""),
+        x: &g.x,
+        y: &g.y,
+        half: &dots,
+        shape: Shape::Disk,
+        field: None,
+        black: None,
+        segments: segs,
+        view: Some((-0.1 * h, z + 0.1 * h, -0.1 * h, z + 0.1 * h)),
+        width_px: 420.0,
+    };
+    out.figure("mesh", mesh.to_svg());
+    Ok(out)
+}
+
+/// Kind `mpm-geostatic`.
+pub const GEOSTATIC_KIND: Kind = Kind {
+    name: "mpm-geostatic",
+    version: 1,
+    about: "fig4-04: MPM a = 1 column, material points in the mesh and geostatic vertical stress",
+    params: typed::<GeostaticParams>,
+    run: run_geostatic,
+    explain: Some(explain_mpm),
+};
+
+/// Parameters of an `mpm-collapse` stage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CollapseParams {
+    /// Solver and material.
+    pub mpm: MpmParams,
+    /// Aspect ratio a = H_0/L_0 (column area of the DEM columns, figures.md SC-COL).
+    pub a: f64,
+    /// Run control (sampling, stop criterion, snapshots).
+    pub run: CollapseOptions,
+    /// Take φ and E from the DEM calibration inputs when declared.
+    pub use_dem_calibration: bool,
+}
+
+impl Default for CollapseParams {
+    fn default() -> Self {
+        CollapseParams { mpm: MpmParams::default(), a: 0.4, run: CollapseOptions::default(), use_dem_calibration: true }
+    }
+}
+
+impl Validate for CollapseParams {
+    fn validate(&self) -> Vec<Issue> {
+        let mut c = Checker::new("");
+        check_mpm(&self.mpm, &mut c);
+        c.in_closed("a", self.a, 0.05, 20.0);
+        c.positive("run.sample_every_tau", self.run.sample_every_tau);
+        c.check(self.run.max_time_tau > self.run.min_time_tau, "run.max_time_tau", self.run.max_time_tau, "> run.min_time_tau");
+        c.issues
+    }
+}
+
+/// Time series table of a collapse (shared column names with the DEM runs).
+pub fn series_table(r: &CollapseResult, g: f64) -> anyhow::Result<polars::prelude::DataFrame> {
+    let tau = r.spec.tau_c(g);
+    let e0 = r.series.first().map(|s| s.e.potential).unwrap_or(1.0);
+    let l0 = r.spec.l0;
+    let s = &r.series;
+    frame(vec![
+        ("t_s", s.iter().map(|v| v.t).collect()),
+        ("t_over_tau_c", s.iter().map(|v| v.t / tau).collect()),
+        ("l_m", s.iter().map(|v| v.l).collect()),
+        ("h_m", s.iter().map(|v| v.h).collect()),
+        ("runout_norm", s.iter().map(|v| (v.l - l0) / l0).collect()),
+        ("h_over_l0", s.iter().map(|v| v.h / l0).collect()),
+        ("ep_j", s.iter().map(|v| v.e.potential).collect()),
+        ("ek_j", s.iter().map(|v| v.e.kinetic).collect()),
+        ("ekx_j", s.iter().map(|v| v.e.kinetic_x).collect()),
+        ("eky_j", s.iter().map(|v| v.e.kinetic_y).collect()),
+        ("elastic_j", s.iter().map(|v| v.e.elastic).collect()),
+        ("plastic_work_j", s.iter().map(|v| v.e.plastic_work).collect()),
+        ("wall_friction_work_j", s.iter().map(|v| v.e.wall_friction).collect()),
+        ("ep_over_e0", s.iter().map(|v| v.e.potential / e0).collect()),
+        ("ek_over_e0", s.iter().map(|v| v.e.kinetic / e0).collect()),
+        ("ed_over_e0", s.iter().map(|v| 1.0 - (v.e.kinetic + v.e.potential) / e0).collect()),
+    ])
+}
+
+fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
+    let mut p: CollapseParams = decode(ctx)?;
+    let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
+    let r = collapse(&p.mpm, ColumnSpec::from_aspect(p.a), &p.run)?;
+    let g = p.mpm.gravity;
+    let tau = r.spec.tau_c(g);
+    let mut out = Output::default();
+    out.table("table", series_table(&r, g)?);
+    let e0 = r.series.first().map(|s| s.e.potential).unwrap_or(1.0);
+    let last = r.series.last().copied();
+    // D10: t_f = when the front settles to within 0.5 d̄ of its final position.
+    let t_f = crate::analysis::front::stop_time(&r.series.iter().map(|s| s.t).collect::<Vec<_>>(), &r.series.iter().map(|s| s.l).collect::<Vec<_>>(), 0.5 * p.mpm.material.grain_diameter);
+    let kmax = r.series.iter().cloned().fold(None::<crate::mpm::column::Sample>, |acc, s| match acc {
+        Some(a) if a.e.kinetic >= s.e.kinetic => Some(a),
+        _ => Some(s),
+    });
+    out.scalar("a", r.spec.h0 / r.spec.l0)
+        .scalar("l0_m", r.spec.l0)
+        .scalar("h0_m", r.spec.h0)
+        .scalar("tau_c_s", tau)
+        .scalar("points", r.points as f64)
+        .scalar("runout_norm", r.runout)
+        .scalar("runout_q99_norm", r.runout_q99)
+        .scalar("lf_m", r.final_front.length)
+        .scalar("hf_over_l0", r.final_front.height / r.spec.l0)
+        .scalar("t_end_over_tau_c", last.map(|s| s.t / tau).unwrap_or(0.0))
+        .scalar("t_f_over_tau_c", t_f / tau)
+        .scalar("t_kemax_over_tau_c", kmax.map(|s| s.t / tau).unwrap_or(f64::NAN))
+        .scalar("ed_over_e0_end", last.map(|s| 1.0 - (s.e.kinetic + s.e.potential) / e0).unwrap_or(f64::NAN))
+        .scalar("plastic_work_over_e0_end", last.map(|s| s.e.plastic_work / e0).unwrap_or(f64::NAN))
+        .scalar("stopped", if r.stopped { 1.0 } else { 0.0 })
+        .scalar("steps", r.steps as f64)
+        .scalar("friction_angle_deg", p.mpm.material.friction_deg);
+    out.note("Run-out: D01 (farthest point linked to the main mass within 1.5 initial spacings) is the chapter's definition; at coarse resolution the 1–2-point-thick toe can detach and cut it suddenly, so runout_q99_norm (x below which 99 % of the mass lies, + l_p) is reported beside it.");
+    out.note(format!("{} scheme, h = {} m, {} PPC ({} points), {note}; stopped = {} after {} steps; wall time {:.1} s (P2G {:.1} s, stress {:.1} s, G2P {:.1} s).",
+        r.scheme, p.mpm.cell_size, p.mpm.ppc, r.points, r.stopped, r.steps, r.wall_s, r.times.p2g.as_secs_f64(), r.times.update_stress.as_secs_f64(), r.times.g2p.as_secs_f64()));
+    let a = r.spec.h0 / r.spec.l0;
+    if a <= 2.7 {
+        out.claims.push(Claim::rel("runout-eq4.6", "(L_f − L_0)/L_0 ≈ 1.67a for a ≲ 2.7 (eq 4.6; MPM follows it, fig 4.5)", 1.67 * a, r.runout, 0.15));
+    }
+    if a <= 0.7 {
+        out.claims.push(Claim::rel("height-undisturbed", "H_f = H_0 for a ≤ 0.7: H_f/L_0 = a (eq 4.7, fig 4.6)", a, r.final_front.height / r.spec.l0, 0.05));
+    }
+    out.claims.push(Claim::abs("comes-to-rest", "\"the granular mass comes to rest at about t = 3τ_c\" (MPM, a = 0.4): t_f/τ_c, front within 0.5 d̄ of L_f (D10)", 3.0, t_f / tau, 1.0));
+    let t: Vec<f64> = r.series.iter().map(|s| s.t / tau).collect();
+    let chart = Chart {
+        title: ctx.caption.clone().unwrap_or_else(|| format!("MPM column collapse, a = {a:.2}")),
+        footer: footer(&ctx.profile, &format!("h = {} mm, {} PPC, ΔL = {:.3}", p.mpm.cell_size * 1e3, p.mpm.ppc, r.runout)),
+        x_label: "t/τ_c".into(),
+        y_label: "(L − L_0)/L_0,  H/L_0".into(),
+        series: vec![
+            Series::new("MPM (L − L_0)/L_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| (s.l - r.spec.l0) / r.spec.l0)).collect(), 0),
+            Series::new("MPM H/L_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| s.h / r.spec.l0)).collect(), 1),
+        ],
+        ..Default::default()
+    };
+    out.figure("figure", chart.to_svg()?);
+    let en = Chart {
+        title: format!("MPM energy evolution, a = {a:.2}"),
+        footer: footer(&ctx.profile, ""),
+        x_label: "t/τ_c".into(),
+        y_label: "E/E_0".into(),
+        series: vec![
+            Series::new("E_p/E_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| s.e.potential / e0)).collect(), 0),
+            Series::new("E_k/E_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| s.e.kinetic / e0)).collect(), 1),
+            Series::new("E_kx/E_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| s.e.kinetic_x / e0)).collect(), 3),
+            Series::new("E_ky/E_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| s.e.kinetic_y / e0)).collect(), 4),
+            Series::new("E_d/E_0 (eq 4.12)", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| 1.0 - (s.e.kinetic + s.e.potential) / e0)).collect(), 2),
+            Series::new("plastic work/E_0", Style::Line, t.iter().copied().zip(r.series.iter().map(|s| s.e.plastic_work / e0)).collect(), 5),
+        ],
+        ..Default::default()
+    };
+    out.figure("energy", en.to_svg()?);
+    Ok(out)
+}
+
+/// Kind `mpm-collapse`.
+pub const COLLAPSE_KIND: Kind = Kind {
+    name: "mpm-collapse",
+    version: 3,
+    about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
+    params: typed::<CollapseParams>,
+    run: run_collapse_stage,
+    explain: Some(explain_mpm),
+};
+
+/// Parameters of an `mpm-work-precision` stage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WorkPrecisionParams {
+    /// Base solver and material.
+    pub mpm: MpmParams,
+    /// Aspect ratio.
+    pub a: f64,
+    /// Points per cell to sweep.
+    pub ppc: Vec<u32>,
+    /// Cell sizes to sweep [m].
+    pub cell_sizes: Vec<f64>,
+    /// Courant numbers to sweep.
+    pub courants: Vec<f64>,
+    /// Reference run: (ppc, cell size, Courant number) — the finest.
+    pub reference: (u32, f64, f64),
+    /// Run control.
+    pub run: CollapseOptions,
+    /// Take φ and E from the DEM calibration inputs when declared.
+    pub use_dem_calibration: bool,
+}
+
+impl Default for WorkPrecisionParams {
+    fn default() -> Self {
+        WorkPrecisionParams {
+            mpm: MpmParams::default(),
+            a: 0.4,
+            ppc: vec![4, 9, 16, 25],
+            cell_sizes: vec![2e-3, 4e-3],
+            courants: vec![0.5, 0.25],
+            reference: (25, 2e-3, 0.1),
+            run: CollapseOptions::default(),
+            use_dem_calibration: true,
+        }
+    }
+}
+
+impl Validate for WorkPrecisionParams {
+    fn validate(&self) -> Vec<Issue> {
+        let mut c = Checker::new("");
+        check_mpm(&self.mpm, &mut c);
+        c.in_closed("a", self.a, 0.05, 20.0);
+        for &p in self.ppc.iter().chain(std::iter::once(&self.reference.0)) {
+            let r = (p as f64).sqrt().round() as u32;
+            c.check(p >= 1 && r * r == p, "ppc", p, "perfect squares (1, 4, 9, 16, 25, …)");
+        }
+        for &h in self.cell_sizes.iter().chain(std::iter::once(&self.reference.1)) {
+            c.positive("cell_sizes", h);
+        }
+        for &k in self.courants.iter().chain(std::iter::once(&self.reference.2)) {
+            c.in_open_closed("courants", k, 0.0, 1.0);
+        }
+        c.check(!self.ppc.is_empty() && !self.cell_sizes.is_empty() && !self.courants.is_empty(), "ppc", "[]", "non-empty sweeps");
+        c.issues
+    }
+}
+
+fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
+    let mut p: WorkPrecisionParams = decode(ctx)?;
+    let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
+    let spec = ColumnSpec::from_aspect(p.a);
+    let mut configs: Vec<(u32, f64, f64)> = Vec::new();
+    for &h in &p.cell_sizes {
+        for &n in &p.ppc {
+            for &k in &p.courants {
+                configs.push((n, h, k));
+            }
+        }
+    }
+    let runit = |n: u32, h: f64, k: f64| -> anyhow::Result<CollapseResult> {
+        let mp = MpmParams { ppc: n, cell_size: h, step: StepRule::Cfl { courant: k, dt_max: 1e-3 }, ..p.mpm.clone() };
+        Ok(collapse(&mp, spec, &p.run)?)
+    };
+    let total = configs.len() + 1;
+    let reference = runit(p.reference.0, p.reference.1, p.reference.2)?;
+    ctx.set_progress(1.0 / total as f64);
+    let mut rows: Vec<(u32, f64, f64, CollapseResult)> = Vec::new();
+    for (i, (n, h, k)) in configs.iter().enumerate() {
+        rows.push((*n, *h, *k, runit(*n, *h, *k)?));
+        ctx.set_progress((i + 2) as f64 / total as f64);
+    }
+    let ref_dl = reference.runout;
+    let mut out = Output::default();
+    out.table("table", frame(vec![
+        ("ppc", rows.iter().map(|r| r.0 as f64).collect()),
+        ("cell_size_m", rows.iter().map(|r| r.1).collect()),
+        ("courant", rows.iter().map(|r| r.2).collect()),
+        ("points", rows.iter().map(|r| r.3.points as f64).collect()),
+        ("steps", rows.iter().map(|r| r.3.steps as f64).collect()),
+        ("runout_norm", rows.iter().map(|r| r.3.runout).collect()),
+        ("runout_rel_error", rows.iter().map(|r| ((r.3.runout - ref_dl) / ref_dl).abs()).collect()),
+        ("point_steps", rows.iter().map(|r| r.3.points as f64 * r.3.steps as f64).collect()),
+    ])?);
+    // Wall times are measurements, not results: a separate table so the main one stays
+    // bit-identical across runs and thread counts.
+    out.table("timing", frame(vec![
+        ("ppc", rows.iter().map(|r| r.0 as f64).collect()),
+        ("cell_size_m", rows.iter().map(|r| r.1).collect()),
+        ("courant", rows.iter().map(|r| r.2).collect()),
+        ("wall_s", rows.iter().map(|r| r.3.wall_s).collect()),
+    ])?);
+    out.scalar("reference_runout_norm", ref_dl)
+        .scalar("reference_points", reference.points as f64)
+        .scalar("reference_steps", reference.steps as f64);
+    // Profile error: the configuration closest to the base params.
+    let base = rows.iter().find(|r| r.0 == p.mpm.ppc && (r.1 - p.mpm.cell_size).abs() < 1e-12);
+    if let Some(b) = base {
+        out.scalar("base_config_runout_rel_error", ((b.3.runout - ref_dl) / ref_dl).abs());
+    }
+    out.note(format!("Reference: {} PPC, h = {} m, Courant {} → ΔL = {:.4} ({} points, {} steps, {:.1} s). {note}", p.reference.0, p.reference.1, p.reference.2, ref_dl, reference.points, reference.steps, reference.wall_s));
+    let mut series = Vec::new();
+    for (ci, &h) in p.cell_sizes.iter().enumerate() {
+        for (ki, &k) in p.courants.iter().enumerate() {
+            let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.1 == h && r.2 == k).map(|r| (r.3.wall_s, ((r.3.runout - ref_dl) / ref_dl).abs().max(1e-6))).collect();
+            series.push(Series::new(format!("h = {} mm, Courant {k} (PPC {:?})", h * 1e3, p.ppc), Style::LinePoints, pts, ci * p.courants.len() + ki));
+        }
+    }
+    let chart = Chart {
+        title: ctx.caption.clone().unwrap_or_else(|| "MPM work-precision".into()),
+        footer: footer(&ctx.profile, &format!("reference ΔL = {ref_dl:.4} ({} PPC, h = {} mm, Courant {})", p.reference.0, p.reference.1 * 1e3, p.reference.2)),
+        x_label: "wall time [s]".into(),
+        y_label: "|ΔL − ΔL_ref| / ΔL_ref".into(),
+        x_log: true,
+        y_log: true,
+        series,
+        ..Default::default()
+    };
+    out.figure("figure", chart.to_svg()?);
+    Ok(out)
+}
+
+/// Kind `mpm-work-precision`.
+pub const WP_KIND: Kind = Kind {
+    name: "mpm-work-precision",
+    version: 1,
+    about: "MPM column run-out error vs wall time over PPC × cell size × Courant number",
+    params: typed::<WorkPrecisionParams>,
+    run: run_wp,
+    explain: Some(explain_mpm),
+};
