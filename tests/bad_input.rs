@@ -96,3 +96,20 @@ fn matrix_expands_and_pairs() {
     assert!(out.contains("p-seed1") && out.contains("p-seed2") && out.contains("f-seed2"), "{out}");
     assert!(out.lines().any(|l| l.starts_with("f-seed2") && l.contains("[p-seed2]")), "{out}");
 }
+
+#[test]
+fn explicit_rolling_damper_is_refused_by_the_preflight_with_numbers() {
+    // The chapter's rolling dashpot (c_r = 0.1 N·m·s/rad) relaxes in ~1e-9 s: the naive
+    // explicit update at the table-4.2 step must be refused before anything runs.
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { rolling: { damping: explicit } }\n    inputs: { psd: p }\n",
+    );
+    let (code, _, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("params.dem.dt") && err.contains("explicit") && err.contains("e-9 s"), "{err}");
+    // The implicit default passes validation (checked without running: --explain).
+    let t = TempProject::new("version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    inputs: { psd: p }\n");
+    let (code, out, err) = t.cli(&["run", "--explain"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("rolling dashpot relaxation") && out.contains("implicit"), "{out}");
+}

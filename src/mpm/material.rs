@@ -249,15 +249,34 @@ pub fn elastic_trial(s: &Stress, l: &Mat2, dt: Real, el: &Elastic) -> Stress {
 /// return including σ_zz, coaxial reconstruction).
 #[inline]
 pub fn mohr_coulomb(tr: Stress, el: &Elastic, mc: &McSurface) -> StressUpdate {
+    let (elastic, r) = mc_elastic_test(&tr, mc);
+    if elastic {
+        return StressUpdate { stress: tr, region: Region::Elastic, plastic_work: 0.0, d_eps_p: 0.0 };
+    }
+    mohr_coulomb_plastic(tr, el, mc, r)
+}
+
+/// First half of [`mohr_coulomb`]: the cheap elastic test (before any division) and the
+/// in-plane radius r = √(((σ_xx − σ_yy)/2)² + σ_xy²). Branch-free, so a solver can run it
+/// over a block of points with full instruction overlap and correct only the plastic ones
+/// with [`mohr_coulomb_plastic`] (same results bit for bit as [`mohr_coulomb`]).
+#[inline(always)]
+pub(crate) fn mc_elastic_test(tr: &Stress, mc: &McSurface) -> (bool, Real) {
     let c0 = 0.5 * (tr.xx + tr.yy);
     let hd = 0.5 * (tr.xx - tr.yy);
     let r = (hd * hd + tr.xy * tr.xy).sqrt();
     let (a, b, z) = (c0 + r, c0 - r, tr.zz);
-    // Cheap elastic test before any division.
     let (s1, s3) = (a.max(z), b.min(z));
-    if mc.yield_fn(s1, s3) <= 0.0 && s1 <= mc.tension_cutoff {
-        return StressUpdate { stress: tr, region: Region::Elastic, plastic_work: 0.0, d_eps_p: 0.0 };
-    }
+    ((mc.yield_fn(s1, s3) <= 0.0) & (s1 <= mc.tension_cutoff), r)
+}
+
+/// Second half of [`mohr_coulomb`] for a trial stress that failed the elastic test; `r` from
+/// [`mc_elastic_test`].
+#[inline]
+pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: Real) -> StressUpdate {
+    let c0 = 0.5 * (tr.xx + tr.yy);
+    let hd = 0.5 * (tr.xx - tr.yy);
+    let (a, b, z) = (c0 + r, c0 - r, tr.zz);
     // In-plane a ≥ b: only the place of σ_zz has to be found. `st` sorted trial, `perm`
     // maps sorted positions back to (a, b, z).
     let (st, perm) = if z >= a {
