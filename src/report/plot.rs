@@ -61,6 +61,17 @@ pub struct Chart {
     pub series: Vec<Series>,
 }
 
+impl Chart {
+    /// A chart on log–log axes.
+    pub fn log_log(title: String, footer: String, x_label: &str, y_label: &str, series: Vec<Series>) -> Chart {
+        Chart { title, footer, x_label: x_label.into(), y_label: y_label.into(), x_log: true, y_log: true, series, ..Default::default() }
+    }
+    /// A work-precision chart: run-out error against the finest run vs wall time.
+    pub fn work_precision(title: String, footer: String, series: Vec<Series>) -> Chart {
+        Chart::log_log(title, footer, "wall time [s]", "|ΔL − ΔL_ref| / ΔL_ref", series)
+    }
+}
+
 const PALETTE: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),

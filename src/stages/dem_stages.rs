@@ -649,16 +649,11 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
         .enumerate()
         .map(|(k, f)| Series::new(format!("k_n × {f}"), Style::LinePoints, rows.iter().skip(1).filter(|r| r.variant.stiffness_factor == *f).map(|r| (r.wall_s, r.error.max(1e-6))).collect(), k))
         .collect();
-    let chart = Chart {
-        title: ctx.caption.clone().unwrap_or_else(|| "DEM work-precision".into()),
-        footer: footer(&ctx.profile, &format!("reference: {} (ΔL = {:.4}), {} grains", rows[0].variant.label, rows[0].delta_l, col.state.len())),
-        x_label: "wall time [s]".into(),
-        y_label: "|ΔL − ΔL_ref| / ΔL_ref".into(),
-        x_log: true,
-        y_log: true,
+    let chart = Chart::work_precision(
+        ctx.caption.clone().unwrap_or_else(|| "DEM work-precision".into()),
+        footer(&ctx.profile, &format!("reference: {} (ΔL = {:.4}), {} grains", rows[0].variant.label, rows[0].delta_l, col.state.len())),
         series,
-        ..Default::default()
-    };
+    );
     out.figure("figure", chart.to_svg()?);
     Ok(out)
 }

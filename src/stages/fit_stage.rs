@@ -214,16 +214,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             series.push(Series::new(label, Style::Dashed, a.iter().copied().zip(v).collect(), 4 + k));
         }
     }
-    let chart = Chart {
-        title: ctx.caption.clone().unwrap_or_else(|| format!("{} vs {}", p.y, p.x)),
-        footer: footer(&ctx.profile, ""),
-        x_label: p.x_label.clone(),
-        y_label: p.y_label.clone(),
-        x_log: true,
-        y_log: true,
-        series,
-        ..Default::default()
-    };
+    let chart = Chart::log_log(ctx.caption.clone().unwrap_or_else(|| format!("{} vs {}", p.y, p.x)), footer(&ctx.profile, ""), &p.x_label, &p.y_label, series);
     out.figure("figure", chart.to_svg()?);
     Ok(out)
 }

@@ -203,11 +203,14 @@ pub struct CollapseParams {
     pub run: CollapseOptions,
     /// Take φ and E from the DEM calibration inputs when declared.
     pub use_dem_calibration: bool,
+    /// Write `.vtp` material-point snapshots (stress, velocity, plastic strain) at
+    /// `run.snapshot_tau`.
+    pub vtk: bool,
 }
 
 impl Default for CollapseParams {
     fn default() -> Self {
-        CollapseParams { mpm: MpmParams::default(), a: 0.4, run: CollapseOptions::default(), use_dem_calibration: true }
+        CollapseParams { mpm: MpmParams::default(), a: 0.4, run: CollapseOptions::default(), use_dem_calibration: true, vtk: false }
     }
 }
 
@@ -251,10 +254,25 @@ pub fn series_table(r: &CollapseResult, g: f64) -> anyhow::Result<polars::prelud
 fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut p: CollapseParams = decode(ctx)?;
     let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
-    let r = collapse(&p.mpm, ColumnSpec::from_aspect(p.a), &p.run)?;
+    let spec = ColumnSpec::from_aspect(p.a);
+    let t_end = p.run.max_time_tau * spec.tau_c(p.mpm.gravity);
+    let r = crate::mpm::column::collapse_with_progress(&p.mpm, spec, &p.run, &mut |s, _| ctx.set_progress(s.t / t_end))?;
     let g = p.mpm.gravity;
     let tau = r.spec.tau_c(g);
     let mut out = Output::default();
+    if p.vtk {
+        for (i, s) in r.snapshots.iter().enumerate() {
+            let ids: Vec<f64> = s.id.iter().map(|&v| v as f64).collect();
+            let svg_free = crate::vtk::polydata(&s.x, &s.y, &[
+                ("id", crate::vtk::Field::Scalar(&ids)),
+                ("velocity", crate::vtk::Field::Vector(&s.vx, &s.vy)),
+                ("stress", crate::vtk::Field::SymTensor(&s.sxx, &s.syy, &s.sxy)),
+                ("plastic_strain", crate::vtk::Field::Scalar(&s.eps_p)),
+                ("inertial_number", crate::vtk::Field::Scalar(&s.inertial)),
+            ]);
+            out.files.push((format!("snapshot-{i:02}-t{:.3}tau.vtp", s.t / tau), svg_free.into_bytes()));
+        }
+    }
     out.table("table", series_table(&r, g)?);
     let e0 = r.series.first().map(|s| s.e.potential).unwrap_or(1.0);
     let last = r.series.last().copied();
@@ -327,7 +345,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "mpm-collapse",
-    version: 3,
+    version: 4,
     about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
     params: typed::<CollapseParams>,
     run: run_collapse_stage,
@@ -425,6 +443,8 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
         ("steps", rows.iter().map(|r| r.3.steps as f64).collect()),
         ("runout_norm", rows.iter().map(|r| r.3.runout).collect()),
         ("runout_rel_error", rows.iter().map(|r| ((r.3.runout - ref_dl) / ref_dl).abs()).collect()),
+        ("runout_q99_norm", rows.iter().map(|r| r.3.runout_q99).collect()),
+        ("runout_q99_rel_error", rows.iter().map(|r| ((r.3.runout_q99 - reference.runout_q99) / reference.runout_q99).abs()).collect()),
         ("point_steps", rows.iter().map(|r| r.3.points as f64 * r.3.steps as f64).collect()),
     ])?);
     // Wall times are measurements, not results: a separate table so the main one stays
@@ -436,12 +456,14 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
         ("wall_s", rows.iter().map(|r| r.3.wall_s).collect()),
     ])?);
     out.scalar("reference_runout_norm", ref_dl)
+        .scalar("reference_runout_q99_norm", reference.runout_q99)
         .scalar("reference_points", reference.points as f64)
         .scalar("reference_steps", reference.steps as f64);
     // Profile error: the configuration closest to the base params.
     let base = rows.iter().find(|r| r.0 == p.mpm.ppc && (r.1 - p.mpm.cell_size).abs() < 1e-12);
     if let Some(b) = base {
         out.scalar("base_config_runout_rel_error", ((b.3.runout - ref_dl) / ref_dl).abs());
+        out.scalar("base_config_runout_q99_rel_error", ((b.3.runout_q99 - reference.runout_q99) / reference.runout_q99).abs());
     }
     out.note(format!("Reference: {} PPC, h = {} m, Courant {} → ΔL = {:.4} ({} points, {} steps, {:.1} s). {note}", p.reference.0, p.reference.1, p.reference.2, ref_dl, reference.points, reference.steps, reference.wall_s));
     let mut series = Vec::new();
@@ -451,16 +473,11 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
             series.push(Series::new(format!("h = {} mm, Courant {k} (PPC {:?})", h * 1e3, p.ppc), Style::LinePoints, pts, ci * p.courants.len() + ki));
         }
     }
-    let chart = Chart {
-        title: ctx.caption.clone().unwrap_or_else(|| "MPM work-precision".into()),
-        footer: footer(&ctx.profile, &format!("reference ΔL = {ref_dl:.4} ({} PPC, h = {} mm, Courant {})", p.reference.0, p.reference.1 * 1e3, p.reference.2)),
-        x_label: "wall time [s]".into(),
-        y_label: "|ΔL − ΔL_ref| / ΔL_ref".into(),
-        x_log: true,
-        y_log: true,
+    let chart = Chart::work_precision(
+        ctx.caption.clone().unwrap_or_else(|| "MPM work-precision".into()),
+        footer(&ctx.profile, &format!("reference ΔL = {ref_dl:.4} ({} PPC, h = {} mm, Courant {})", p.reference.0, p.reference.1 * 1e3, p.reference.2)),
         series,
-        ..Default::default()
-    };
+    );
     out.figure("figure", chart.to_svg()?);
     Ok(out)
 }
@@ -468,7 +485,7 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-work-precision`.
 pub const WP_KIND: Kind = Kind {
     name: "mpm-work-precision",
-    version: 1,
+    version: 2,
     about: "MPM column run-out error vs wall time over PPC × cell size × Courant number",
     params: typed::<WorkPrecisionParams>,
     run: run_wp,
