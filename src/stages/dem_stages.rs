@@ -80,11 +80,14 @@ pub struct PrepParams {
     pub deposition: DepositionParams,
     /// Grain diameter of the hexagonal lattice [m] (figures.md HEX: 1.15 mm).
     pub hex_diameter_m: f64,
+    /// The chapter's packing fraction for this sample, checked against the core packing
+    /// (≥ 2 d̄ from walls and the surface; D09 leaves the region open). None: no claim.
+    pub target_packing_fraction: Option<f64>,
 }
 
 impl Default for PrepParams {
     fn default() -> Self {
-        PrepParams { dem: DemParams::default(), stiffness_factor: 1.0, a: 0.8, area_m2: 3.9e-3, packing: Packing::Ballistic, deposition: DepositionParams::default(), hex_diameter_m: 1.15e-3 }
+        PrepParams { dem: DemParams::default(), stiffness_factor: 1.0, a: 0.8, area_m2: 3.9e-3, packing: Packing::Ballistic, deposition: DepositionParams::default(), hex_diameter_m: 1.15e-3, target_packing_fraction: None }
     }
 }
 
@@ -190,6 +193,9 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("stiffness_factor", p.stiffness_factor)
         .scalar("seed", p.deposition.seed as f64);
     out.claims.push(Claim::at_most("at-rest", "stable state before release: E_k/E_p < 1e-6 (figures.md fig4-02)", 1e-6, col.settle.ke_over_ep));
+    if let Some(t) = p.target_packing_fraction {
+        out.claims.push(Claim::abs("packing-fraction", "loose 79 % / dense 83 % packing (chapter §4.2.3), core packing fraction", t, col.packing_fraction_core, 0.015));
+    }
     out.note(format!(
         "{:?} packing, {} grains, L_0 = {:.2} mm, H_0 = {:.2} mm (a = {:.3}), φ = {:.3}; k_n = {:.3e} N/m (stiffness factor {}), Δt = {:.3e} s; settled to E_k/E_p = {:.1e}.",
         p.packing, col.state.len(), col.l0 * 1e3, col.h0 * 1e3, col.h0 / col.l0, col.packing_fraction, run.grain.kn, p.stiffness_factor, run.dt, col.settle.ke_over_ep
@@ -206,7 +212,7 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-column-prep`.
 pub const PREP_KIND: Kind = Kind {
     name: "dem-column-prep",
-    version: 2,
+    version: 3,
     about: "DEM column sample: ballistic deposition of the PSD (trimmed to L0 x H0) or hexagonal lattice",
     params: typed::<PrepParams>,
     run: run_prep,
