@@ -59,16 +59,32 @@ pub struct Chart {
     pub y_range: Option<(f64, f64)>,
     /// Series.
     pub series: Vec<Series>,
+    /// Where the legend goes (choose the corner the data leave empty).
+    pub legend: Legend,
+}
+
+/// Legend corner.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Legend {
+    /// Upper left (time series starting at zero).
+    #[default]
+    UpperLeft,
+    /// Upper right.
+    UpperRight,
+    /// Lower left (work-precision: error falls as wall time grows).
+    LowerLeft,
+    /// Lower right (growing power laws).
+    LowerRight,
 }
 
 impl Chart {
     /// A chart on log–log axes.
     pub fn log_log(title: String, footer: String, x_label: &str, y_label: &str, series: Vec<Series>) -> Chart {
-        Chart { title, footer, x_label: x_label.into(), y_label: y_label.into(), x_log: true, y_log: true, series, ..Default::default() }
+        Chart { title, footer, x_label: x_label.into(), y_label: y_label.into(), x_log: true, y_log: true, series, legend: Legend::LowerRight, ..Default::default() }
     }
     /// A work-precision chart: run-out error against the finest run vs wall time.
     pub fn work_precision(title: String, footer: String, series: Vec<Series>) -> Chart {
-        Chart::log_log(title, footer, "wall time [s]", "|ΔL − ΔL_ref| / ΔL_ref", series)
+        Chart { legend: Legend::LowerLeft, ..Chart::log_log(title, footer, "wall time [s]", "|ΔL − ΔL_ref| / ΔL_ref", series) }
     }
 }
 
@@ -174,7 +190,12 @@ impl Chart {
                         .configure_series_labels()
                         .background_style(WHITE.mix(0.85))
                         .border_style(RGBColor(180, 180, 180))
-                        .position(SeriesLabelPosition::UpperLeft)
+                        .position(match self.legend {
+                            Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
+                            Legend::UpperRight => SeriesLabelPosition::UpperRight,
+                            Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+                            Legend::LowerRight => SeriesLabelPosition::LowerRight,
+                        })
                         .draw()
                         .map_err(|e| anyhow::anyhow!("{e:?}"))?;
                 }};
