@@ -54,6 +54,11 @@ fn unphysical_values_are_refused_with_the_allowed_range() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("params.d_min_mm") && err.contains("> 0"), "{err}");
     assert!(err.contains("dem.grain.restitution") && err.contains("(0, 1]"), "{err}");
+    // A rejected stage is reported once, not again as a "missing input" of its dependants.
+    let t = TempProject::new("version: 1\nstages:\n  - id: psd\n    kind: psd\n    params: { n: 0 }\n  - id: f\n    kind: psd-figure\n    inputs: { psd: psd }\n");
+    let (code, _, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("params.n") && !err.contains("missing input"), "{err}");
 }
 
 #[test]

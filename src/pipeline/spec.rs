@@ -284,6 +284,8 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
     // Matrix of each base id (for pairing inputs).
     let mut base_matrix: HashMap<String, (String, Vec<String>)> = HashMap::new();
     let mut pending_inputs: Vec<(usize, Option<InputsSpec>, Option<(String, String)>, Option<usize>)> = Vec::new();
+    // Stages that exist but were rejected: their dependants are not told "no such stage".
+    let mut rejected: std::collections::HashSet<String> = std::collections::HashSet::new();
 
     for (si, raw) in file.stages.iter().enumerate() {
         let raw_id = raw.get("id").and_then(|v| v.as_str()).map(str::to_string);
@@ -486,6 +488,8 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                         let help = if pr.allowed.is_empty() { format!("see the `{}` kind's parameters in docs/pipeline.md", kind.name) } else { pr.allowed.clone() };
                         diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), pr.message, help);
                     }
+                    rejected.insert(mid.clone());
+                    rejected.insert(entry.id.clone());
                     continue;
                 }
             };
@@ -538,6 +542,9 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                     continue;
                 }
                 let members: Vec<&Stage> = stages.iter().filter(|s| s.base_id == r).collect();
+                if members.is_empty() && rejected.contains(&r) {
+                    continue; // already reported where it is defined
+                }
                 if members.is_empty() {
                     let l = line.and_then(|ln| locate(&text, &["inputs"], ln));
                     let sid = stages[idx].id.clone();
