@@ -180,7 +180,7 @@ pub struct CollapseOptions {
     /// Sampling interval of the time series, in units of τ_c [-]. 0.02.
     pub sample_every_tau: Real,
     /// Stop when E_k,grid < `stop_ke_ratio` × E_p(0) (after `min_time_tau`) [-]. 1e-5.
-    /// E_k,grid (`SampleEnergies::kinetic_grid`) ignores the FLIP point-velocity noise.
+    /// E_k,grid (`Energies::kinetic_grid`) ignores the FLIP point-velocity noise.
     pub stop_ke_ratio: Real,
     /// Also stop when the front is still: L and H moved less than `still_tol` over the last
     /// `still_tau` τ_c while E_k,grid < `still_ke_ratio` × E_p(0). Defaults: 1 τ_c,
@@ -235,7 +235,7 @@ pub struct Sample {
     /// x below which 99 % of the mass lies, plus l_p [m] (a front insensitive to linking).
     pub l_q99: Real,
     /// Energies [J/m].
-    pub e: SampleEnergies,
+    pub e: Energies,
     /// Inertial-number statistics (computed for every model as a diagnostic).
     pub inertial: InertialStats,
 }
@@ -297,44 +297,6 @@ pub fn inertial_stats(state: &State, m: &super::params::Material, g: Real) -> In
     InertialStats { mean_flowing: sum / mflow, p95_flowing: flowing[k].0, max, flowing_fraction: mflow / mass, stress_free_fraction: mfree / mass }
 }
 
-/// Energies recorded in a sample [J/m] (figures.md D06/D07).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct SampleEnergies {
-    /// E_p.
-    pub potential: Real,
-    /// E_k.
-    pub kinetic: Real,
-    /// E_kx.
-    pub kinetic_x: Real,
-    /// E_ky.
-    pub kinetic_y: Real,
-    /// Kinetic energy of the grid-interpolated point velocities (see `Energies`).
-    pub kinetic_grid: Real,
-    /// Elastic strain energy.
-    pub elastic: Real,
-    /// Cumulative plastic work.
-    pub plastic_work: Real,
-    /// Cumulative wall/base Coulomb friction work.
-    pub wall_friction: Real,
-    /// Cumulative wall/base normal (impact) work.
-    pub wall_normal: Real,
-}
-
-impl From<Energies> for SampleEnergies {
-    fn from(e: Energies) -> Self {
-        Self {
-            potential: e.potential,
-            kinetic: e.kinetic,
-            kinetic_x: e.kinetic_x,
-            kinetic_y: e.kinetic_y,
-            kinetic_grid: e.kinetic_grid,
-            elastic: e.elastic,
-            plastic_work: e.plastic_work,
-            wall_friction: e.wall_friction,
-            wall_normal: e.wall_normal,
-        }
-    }
-}
 
 /// Point fields at one time.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -544,7 +506,7 @@ pub fn run_collapse_with_progress(
             main_fraction: f.mass_fraction,
             l_dilated: front_of_dilated(state, lp, s).length,
             l_q99: mass_quantile_x(state, 0.99) + lp,
-            e: e.into(),
+            e,
             inertial: inertial_stats(state, &mat, g),
         });
         e

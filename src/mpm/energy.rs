@@ -7,7 +7,7 @@ use crate::math::Real;
 use rayon::prelude::*;
 
 /// Energies per metre of thickness [J/m].
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Energies {
     /// E_p = Σ m g y (eq 4.10, y from the base).
     pub potential: Real,
