@@ -12,12 +12,15 @@ fn work_precision_sweep_reports_error_and_time() {
     let col = hex_column(0.012, 0.012, 1.15e-3, &base.softened(0.01), 0.05).unwrap();
     let cp = CollapseParams { t_max: 2.0, sample_every: 0.1, ..CollapseParams::default() };
     let v = |label: &str, k: f64, f: f64| Variant { label: label.into(), stiffness_factor: k, dt_fraction: f };
-    let rows = work_precision(&col, &base, &cp, &[v("ref", 0.01, 1.0 / 50.0), v("dt/10", 0.01, 1.0 / 10.0), v("k/10", 0.001, 1.0 / 20.0)]).unwrap();
+    let rows = work_precision(&col, &base, &cp, &[v("ref", 0.01, 1.0 / 50.0), v("dt/10", 0.01, 1.0 / 10.0), v("k/10", 0.001, 1.0 / 20.0)], 3, 1e-9, 7).unwrap();
     for r in &rows {
-        eprintln!("{:>6}: dt {:.2e} ΔL {:.4} H/L0 {:.3} err {:.3e} wall {:.2}s steps {}", r.variant.label, r.dt, r.delta_l, r.h_final_over_l0, r.error, r.wall_s, r.steps);
+        eprintln!("{:>6}: dt {:.2e} ΔL {:.4} ± {:.4} H/L0 {:.3} err {:.3e} ± {:.1e} wall {:.2}s steps {}", r.variant.label, r.dt, r.mean, r.spread, r.h_final_over_l0, r.error, r.error_spread, r.wall_s, r.steps);
     }
     assert_eq!(rows[0].error, 0.0);
-    assert!(rows.iter().all(|r| r.delta_l > 0.0 && r.wall_s > 0.0));
+    assert!(rows.iter().all(|r| r.delta_l.len() == 3 && r.mean > 0.0 && r.wall_s > 0.0 && r.spread.is_finite() && r.error_spread.is_finite()));
+    // the members differ (the perturbation reaches the chaotic run-out) and the reference's
+    // own spread enters the standard error of every other setting
+    assert!(rows[1].error_spread > 0.0);
     assert!(rows[1].wall_s < rows[0].wall_s);
 }
 

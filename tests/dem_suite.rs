@@ -9,6 +9,8 @@ mod dem_determinism_threads;
 mod dem_energy_balance;
 #[path = "dem_prep.rs"]
 mod dem_prep;
+#[path = "dem_rolling_dashpot.rs"]
+mod dem_rolling_dashpot;
 #[path = "dem_shear.rs"]
 mod dem_shear;
 #[path = "dem_stability_preflight.rs"]

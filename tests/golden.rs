@@ -58,20 +58,26 @@ fn golden_numbers_quick_profile() {
     for id in GOLDEN {
         let v: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("reports/quick").join(format!("{id}.json"))).unwrap()).unwrap();
         let scalars: BTreeMap<String, String> = v["scalars"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), round(x.as_f64().unwrap_or(f64::NAN), digits(id)))).collect();
-        let claims: Vec<BTreeMap<String, String>> = v["claims"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|c| {
-                let mut m = BTreeMap::new();
-                m.insert("id".into(), c["id"].as_str().unwrap().to_string());
-                m.insert("paper".into(), round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)));
-                m.insert("ours".into(), round(c["ours"].as_f64().unwrap_or(f64::NAN), digits(id)));
-                m.insert("pass".into(), c["pass"].to_string());
-                m
-            })
-            .collect();
-        let snap = serde_json::json!({ "stage": id, "profile": "quick", "scalars": scalars, "claims": claims });
+        let rows = |key: &str| -> Vec<BTreeMap<String, String>> {
+            v[key]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| {
+                    let mut m = BTreeMap::new();
+                    m.insert("id".into(), c["id"].as_str().unwrap().to_string());
+                    m.insert("paper".into(), round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)));
+                    m.insert("ours".into(), round(c["ours"].as_f64().unwrap_or(f64::NAN), digits(id)));
+                    m.insert("pass".into(), c["pass"].to_string());
+                    if c["calibrated"].as_bool() == Some(true) {
+                        m.insert("calibrated".into(), "true".into());
+                    }
+                    m
+                })
+                .collect()
+        };
+        let (claims, checks) = (rows("claims"), rows("checks"));
+        let snap = serde_json::json!({ "stage": id, "profile": "quick", "scalars": scalars, "claims": claims, "checks": checks });
         insta::with_settings!({ snapshot_path => root.join("golden"), prepend_module_to_snapshot => false, omit_expression => true }, {
             insta::assert_yaml_snapshot!(*id, snap);
         });

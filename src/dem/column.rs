@@ -152,11 +152,11 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
     if cp.right_wall_at > 0.0 {
         walls.push(crate::dem::walls::Wall::right("far", cp.right_wall_at * column.l0));
     }
-    let mut w = World::new(params.clone(), column.state.clone(), walls, None)?;
+    let mut w = column.world(params, walls)?;
     let preflight = w.preflight()?;
     let g = params.gravity.max(1e-12);
     let tau_c = (column.h0 / g).sqrt();
-    let d_mean = 2.0 * column.state.radius_stats().1;
+    let d_mean = column.state.volume_mean_diameter();
     let gap = cp.link_gap * d_mean;
     let ep0 = w.energies().ep;
     let mut snaps: Vec<Real> = cp.snapshots.iter().map(|s| s * tau_c).collect();
@@ -207,28 +207,39 @@ pub struct Variant {
     pub dt_fraction: Real,
 }
 
-/// Outcome of one variant.
+/// Outcome of one variant: an ensemble of perturbed starts from the column re-settled at
+/// the variant's own stiffness and step.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WorkPrecisionRow {
     /// The variant.
     pub variant: Variant,
     /// Δt used [s].
     pub dt: Real,
-    /// ΔL = (L_f − L_0)/L_0.
-    pub delta_l: Real,
-    /// H_f / L_0.
+    /// ΔL = (L_f − L_0)/L_0 of each member.
+    pub delta_l: Vec<Real>,
+    /// Mean ΔL over the members.
+    pub mean: Real,
+    /// Sample standard deviation of ΔL over the members (the chaotic spread).
+    pub spread: Real,
+    /// Mean H_f / L_0.
     pub h_final_over_l0: Real,
-    /// |ΔL − ΔL_ref| / ΔL_ref, reference = the first variant.
+    /// |mean − mean_ref| / mean_ref, reference = the first variant.
     pub error: Real,
-    /// Wall time [s].
+    /// Standard error of that difference, √(s²/n + s_ref²/n_ref) / mean_ref.
+    pub error_spread: Real,
+    /// Mean wall time of one collapse [s].
     pub wall_s: f64,
-    /// Steps.
+    /// Wall time of the re-settling at this stiffness [s].
+    pub settle_wall_s: f64,
+    /// Steps of one collapse (member 0).
     pub steps: u64,
 }
 
-/// Run the collapse once per variant (first = reference, the finest) and tabulate error
-/// against wall time.
-pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, variants: &[Variant]) -> Result<Vec<WorkPrecisionRow>, DemError> {
+/// Run each variant as an ensemble (first variant = reference, the finest): the column is
+/// re-settled at the variant's stiffness and step, then collapsed from `members` starts
+/// (member 0 as settled, the others with every grain moved by ≤ `perturbation` m, seeded).
+pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, variants: &[Variant], members: usize, perturbation: Real, seed: u64) -> Result<Vec<WorkPrecisionRow>, DemError> {
+    use rayon::prelude::*;
     let mut rows: Vec<WorkPrecisionRow> = Vec::new();
     for v in variants {
         let mut p = base.softened(v.stiffness_factor);
@@ -236,13 +247,35 @@ pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, va
         let sizes = crate::dem::preflight::SizeClasses { r_min, r_mean: r_min, r_max: r_min };
         let tc = crate::dem::preflight::time_scales(&p, sizes, false, 1.0)[0].value;
         p.dt = v.dt_fraction * tc;
-        let r = collapse(column, &p, cp)?;
-        let last = r.samples.last().copied();
-        let delta_l = r.delta_l();
-        let reference = rows.first().map(|x| x.delta_l).unwrap_or(delta_l);
+        let t0 = Instant::now();
+        let settled = column.resettled(&p, 1e-6, 0.3)?;
+        let settle_wall_s = t0.elapsed().as_secs_f64();
+        let runs: Vec<Result<CollapseResult, DemError>> = (0..members.max(1))
+            .into_par_iter()
+            .map(|k| {
+                let mut c = settled.clone();
+                if k > 0 {
+                    let mut rng = crate::dem::prep::SplitMix64(seed.wrapping_mul(0x9E37_79B9).wrapping_add(k as u64));
+                    for i in 0..c.state.len() {
+                        c.state.x[i] += perturbation * (2.0 * rng.next_f64() - 1.0);
+                        c.state.y[i] += perturbation * (2.0 * rng.next_f64() - 1.0);
+                    }
+                }
+                collapse(&c, &p, cp)
+            })
+            .collect();
+        let runs = runs.into_iter().collect::<Result<Vec<_>, _>>()?;
+        let delta_l: Vec<Real> = runs.iter().map(|r| r.delta_l()).collect();
+        let n = delta_l.len() as Real;
+        let mean = delta_l.iter().sum::<Real>() / n;
+        let spread = if delta_l.len() > 1 { (delta_l.iter().map(|x| (x - mean) * (x - mean)).sum::<Real>() / (n - 1.0)).sqrt() } else { 0.0 };
+        let hf = runs.iter().map(|r| r.samples.last().map(|s| s.height / r.l0).unwrap_or(0.0)).sum::<Real>() / n;
+        let (ref_mean, ref_spread, ref_n) = rows.first().map(|x| (x.mean, x.spread, x.delta_l.len() as Real)).unwrap_or((mean, spread, n));
+        let error = if rows.is_empty() { 0.0 } else { (mean - ref_mean).abs() / ref_mean.abs().max(1e-12) };
+        let error_spread = (spread * spread / n + ref_spread * ref_spread / ref_n).sqrt() / ref_mean.abs().max(1e-12);
         rows.push(WorkPrecisionRow {
-            variant: v.clone(), dt: p.dt, delta_l, h_final_over_l0: last.map(|s| s.height / r.l0).unwrap_or(0.0),
-            error: (delta_l - reference).abs() / reference.abs().max(1e-12), wall_s: r.wall_s, steps: r.steps,
+            variant: v.clone(), dt: p.dt, mean, spread, h_final_over_l0: hf, error, error_spread,
+            wall_s: runs.iter().map(|r| r.wall_s).sum::<f64>() / n, settle_wall_s, steps: runs[0].steps, delta_l,
         });
     }
     Ok(rows)

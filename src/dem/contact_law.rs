@@ -32,6 +32,8 @@ pub struct LawCoeffs {
     pub cr: Real,
     /// μ_r [-].
     pub mu_r: Real,
+    /// The cap holds spring + dashpot together (LAMMPS `rolling sds`), not the spring alone.
+    pub cap_dashpot: bool,
 }
 
 impl LawCoeffs {
@@ -46,6 +48,7 @@ impl LawCoeffs {
             kr: if on { r.kr } else { 0.0 },
             cr: if on { r.cr } else { 0.0 },
             mu_r: if on { r.mu_r } else { 0.0 },
+            cap_dashpot: r.model == crate::dem::params::RollingModel::Capped,
         }
     }
 }
@@ -84,6 +87,18 @@ pub struct PairWork {
     pub rolling: Real,
 }
 
+/// Implicit rolling dashpot of one contact, applied by the integrator as a pairwise
+/// backward-Euler impulse (see `dem::integrate`). `c = 0`: no dashpot this step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RollDashpot {
+    /// Dashpot coefficient c_r [N·m·s].
+    pub c: Real,
+    /// Spring moment on body i [N·m/m] (the cap applies to spring + dashpot).
+    pub m_spring: Real,
+    /// Cap on |spring + dashpot| [N·m/m]; infinite for the EPSD model (dashpot uncapped).
+    pub m_max: Real,
+}
+
 /// Result on body i (body j gets −f and its own torque).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PairOut {
@@ -93,15 +108,15 @@ pub struct PairOut {
     pub t_i: Real,
     /// Torque on j [N·m/m].
     pub t_j: Real,
-    /// Implicit rolling dashpot coefficient active at this contact (0 if none) [N·m·s].
-    pub c_roll: Real,
+    /// Implicit rolling dashpot active at this contact (`c = 0` if none).
+    pub roll: RollDashpot,
     /// Dissipation booked this step (only filled with the ledger on).
     pub work: PairWork,
 }
 
 /// The contact law. `ROLLING`: rolling resistance present; `IMPLICIT`: the rolling dashpot
-/// is left to the integrator (semi-implicit), else applied explicitly here; `LEDGER`:
-/// dissipation is booked.
+/// is left to the integrator (pairwise backward Euler), else applied explicitly here;
+/// `LEDGER`: dissipation is booked.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Law<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool>;
 
@@ -122,6 +137,7 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
 
         // --- tangential history and Coulomb cap ---
         let xi_old = h.tangential;
+        let ft_old = h.ft;
         let mut xi = xi_old + vt * dt;
         let gt = c.gt_ratio * p.cn;
         let mut ft = -c.kt * xi - gt * vt;
@@ -132,6 +148,7 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
             xi = -(ft + gt * vt) / c.kt;
         }
         h.tangential = xi;
+        h.ft = ft;
 
         // --- force and torque on both bodies ---
         out.f = n * fn_ + t * ft;
@@ -143,30 +160,40 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
         if ROLLING {
             let wr = p.w_i - p.w_j;
             let th_old = h.rolling;
+            let m_old = h.mr;
             let mut th = th_old + wr * dt;
             let mut m = -c.kr * th;
             let m_max = c.mu_r * p.r_roll * fn_;
             let plastic = m.abs() >= m_max;
             if plastic {
+                // full mobilisation: the spring sits on the cap, no dashpot
                 m = m_max.copysign(m);
                 th = -m / c.kr;
             } else if IMPLICIT {
-                out.c_roll = c.cr;
+                let cap = if c.cap_dashpot { m_max } else { Real::INFINITY };
+                out.roll = RollDashpot { c: c.cr, m_spring: m, m_max: cap };
             } else {
                 m -= c.cr * wr;
+                if c.cap_dashpot && m.abs() > m_max {
+                    // spring + dashpot on the cap (LAMMPS `rolling sds`): rescale the spring
+                    m = m_max.copysign(m);
+                    th = -(m + c.cr * wr) / c.kr;
+                }
             }
             h.rolling = th;
+            h.mr = m;
             out.t_i += m;
             out.t_j -= m;
             if LEDGER {
-                // energy taken from the grains by the moment minus what the spring stored
-                roll_work = -m * wr * dt - 0.5 * c.kr * (th * th - th_old * th_old);
+                // energy taken from the grains by the moment (trapezoid) minus what the
+                // spring stored
+                roll_work = -0.5 * (m_old + m) * wr * dt - 0.5 * c.kr * (th * th - th_old * th_old);
             }
         }
 
         if LEDGER {
             out.work.normal = -(fn_ - f_el) * vn * dt;
-            out.work.tangential = -ft * vt * dt - 0.5 * c.kt * (xi * xi - xi_old * xi_old);
+            out.work.tangential = -0.5 * (ft_old + ft) * vt * dt - 0.5 * c.kt * (xi * xi - xi_old * xi_old);
             out.work.rolling = roll_work;
         }
         out
@@ -201,7 +228,7 @@ mod tests {
     #[test]
     fn coulomb_cap_rescales_spring() {
         let c = coeffs();
-        let mut h = ContactState { tangential: 1e-3, rolling: 0.0 };
+        let mut h = ContactState { tangential: 1e-3, ..Default::default() };
         let p = pin(1e-7, Vec2::new(0.0, 0.0));
         let o = Law::<false, true, false>::eval(&c, &p, &mut h, 1e-7);
         let fn_ = c.kn * 1e-7;
@@ -212,14 +239,37 @@ mod tests {
     }
 
     #[test]
+    fn pure_stick_books_no_tangential_or_rolling_dissipation() {
+        // A sticking contact loads its tangential and rolling springs: the work done on
+        // them is stored, not dissipated. Booking end-of-step force × displacement (the old
+        // rule) books ½kΔξ² each step; the trapezoid of the stored previous force is exact.
+        let c = coeffs();
+        let mut h = ContactState::default();
+        let mut p = pin(1e-6, Vec2::new(1e-4, 0.0));
+        p.w_i = 1e-3;
+        let dt = 1e-7;
+        let (mut wt, mut wr) = (0.0, 0.0);
+        for _ in 0..100 {
+            let o = Law::<true, true, true>::eval(&c, &p, &mut h, dt);
+            wt += o.work.tangential;
+            wr += o.work.rolling;
+        }
+        let stored_t = 0.5 * c.kt * h.tangential * h.tangential;
+        let stored_r = 0.5 * c.kr * h.rolling * h.rolling;
+        assert!(stored_t > 0.0 && h.ft.abs() < c.mu * c.kn * 1e-6, "still sticking");
+        assert!(wt.abs() <= 1e-9 * stored_t, "tangential dissipation {wt:e} booked during pure stick (stored {stored_t:e})");
+        assert!(wr.abs() <= 1e-9 * stored_r, "rolling dissipation {wr:e} booked during pure stick (stored {stored_r:e})");
+    }
+
+    #[test]
     fn rolling_cap_and_equal_opposite_moments() {
         let c = coeffs();
-        let mut h = ContactState { tangential: 0.0, rolling: 1.0 };
+        let mut h = ContactState { rolling: 1.0, ..Default::default() };
         let p = pin(1e-7, Vec2::zeros());
         let o = Law::<true, true, false>::eval(&c, &p, &mut h, 1e-7);
         let m_max = c.mu_r * 2.5e-4 * c.kn * 1e-7;
         assert!((o.t_i + m_max).abs() < 1e-12);
         assert!((o.t_i + o.t_j).abs() < 1e-15);
-        assert_eq!(o.c_roll, 0.0, "no dashpot at full mobilisation");
+        assert_eq!(o.roll.c, 0.0, "no dashpot at full mobilisation");
     }
 }

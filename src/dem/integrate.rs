@@ -1,42 +1,69 @@
-//! Velocity Verlet (kick–drift–kick) for disks, with the semi-implicit rolling dashpot.
+//! Velocity Verlet (kick–drift–kick) for disks, with the implicit rolling dashpot.
 //!
-//! Translation: v ← v + (h/m) F, h = Δt/2; x ← x + Δt v. Rotation, explicit:
-//! ω ← ω + (h/I) M. Rotation with the implicit rolling dashpot (params
-//! [`RollingDamping::Implicit`](crate::dem::params::RollingDamping)), split after the
-//! explicit moments ω* = ω + (h/I) M:
-//! 1. wall partners (spin 0): ω** = ω* / (1 + h C_w / I) (backward Euler);
-//! 2. grain partners: ω⁺ = ω** + β (ω̄ − ω**), ω̄ = Σ c_r ω_j / Σ c_r (spins of the force
-//!    evaluation), β = x/(1+2x), x = h C_g/I.
-//! For an isolated equal pair this is exactly backward Euler of the relative rolling rate,
-//! u⁺ = u/(1 + 2x), with angular momentum conserved; in a network ω⁺ is a convex
-//! combination with weight ≤ ½ on the partners, so even the alternating (checkerboard)
-//! mode decays monotonically: unconditionally stable, no overshoot, no exp() per grain.
-//! The dashpot work is booked as the change ½I(ω*² − ω⁺²) it causes.
+//! Translation: v ← v + (h/m) F, h = Δt/2; x ← x + Δt v. Rotation: ω* = ω + (h/I) M with
+//! the explicit moments (springs, friction, and the rolling dashpot when it is explicit).
+//!
+//! Implicit rolling dashpot ([`RollingDamping::Implicit`]): table 4.2's c_r = 0.1 N·m·s
+//! relaxes a relative spin in I/c_r ≈ 1e-9 s (figures.md §c.2), 100–1000× below any usable
+//! step, so it is integrated by backward Euler. Two ways were open: solve
+//! (I + hC_L)ω⁺ = Iω* with C_L the dashpot Laplacian of the contact network, or apply
+//! pairwise backward-Euler impulses contact by contact. We take the pairwise impulses, in a
+//! fixed order (pairs by (i, j), then walls by (wall, grain)), one sweep per half kick:
+//! - each update is exact backward Euler of its pair, u⁺ = u/(1 + h c_r/I_eff) with
+//!   u = ω_i − ω_j and I_eff = I_iI_j/(I_i + I_j) (I_eff = I_i at a wall), applied as an
+//!   equal and opposite angular impulse J = −I_eff(u − u⁺): ΣIω is conserved to
+//!   round-off and the pair's rotational energy can only fall, so E_rot never rises and
+//!   no mode overshoots, whatever c_r h/I;
+//! - the sweep is one Gauss–Seidel pass of the network system; with c_r h/I ≫ 1 every
+//!   pass already locks each pair, so more passes change little, and it needs no
+//!   assembly, no solver tolerance and no allocation;
+//! - the cap of [`RollingModel::Capped`] clips J/h so that |M_spring + J/h| ≤ μ_r r F_n,
+//!   which a linear solve could not express.
+//! The sweep is sequential (deterministic at any thread count); it costs one pass over
+//! the contacts, small against the force evaluation. The dissipation booked is the exact
+//! drop of ½Iω² the impulses cause (plus the work a driver does on prescribed grains).
+//!
 //! Prescribed grains (1/m = 0) keep their velocity; the work their drivers do is booked
 //! as external work.
+//!
+//! [`RollingDamping::Implicit`]: crate::dem::params::RollingDamping::Implicit
+//! [`RollingModel::Capped`]: crate::dem::params::RollingModel::Capped
 
+use crate::dem::contact_law::RollDashpot;
+use crate::dem::energy::Ledger;
 use crate::dem::world::{GRAIN_CHUNK, Partial, Ptr, World, chunked};
 use crate::math::Real;
 
 impl World {
-    /// First half kick and drift, fused in one pass over the grains; returns whether the
-    /// neighbour list must be rebuilt.
+    /// First half kick and drift; returns whether the neighbour list must be rebuilt.
     pub(crate) fn integrate_first_half<const IMP: bool, const L: bool>(&mut self) -> bool {
         let dt = self.params.dt;
         for wall in self.walls.iter_mut() {
             wall.origin += wall.velocity * dt;
         }
         let force_rebuild = self.nl.x0.len() != self.state.len();
-        let moved = self.kick_pass::<IMP, L, true>();
+        let moved = if IMP {
+            self.kick_pass::<L, false>();
+            self.rolling_dashpot::<L>();
+            self.drift_pass()
+        } else {
+            self.kick_pass::<L, true>()
+        };
         moved || force_rebuild
     }
 
     /// Second half kick.
-    pub(crate) fn integrate_second_half<const IMP: bool, const L: bool>(&mut self) { self.kick_pass::<IMP, L, false>(); }
+    pub(crate) fn integrate_second_half<const IMP: bool, const L: bool>(&mut self) {
+        self.kick_pass::<L, false>();
+        if IMP {
+            self.rolling_dashpot::<L>();
+        }
+    }
 
-    /// Half kick of every grain, then (if `DRIFT`) x ← x + Δt v, θ ← θ + Δt ω and the skin
-    /// check. Returns whether a grain moved more than skin/2 since the last build.
-    fn kick_pass<const IMP: bool, const L: bool, const DRIFT: bool>(&mut self) -> bool {
+    /// Half kick of every grain with the explicit forces and moments, then (if `DRIFT`)
+    /// x ← x + Δt v, θ ← θ + Δt ω and the skin check. Returns whether a grain moved more
+    /// than skin/2 since the last build.
+    fn kick_pass<const L: bool, const DRIFT: bool>(&mut self) -> bool {
         let dt = self.params.dt;
         let h = 0.5 * dt;
         let s = &mut self.state;
@@ -44,7 +71,7 @@ impl World {
         let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
         let (inv_m, inv_i) = (&s.inv_m[..], &s.inv_i[..]);
-        let (fx, fy, tq, cr, sr, cw) = (&self.fx[..], &self.fy[..], &self.tq[..], &self.c_roll[..], &self.s_roll[..], &self.c_wall[..]);
+        let (fx, fy, tq) = (&self.fx[..], &self.fy[..], &self.tq[..]);
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
         let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
@@ -53,7 +80,6 @@ impl World {
             for a in lo..hi {
                 unsafe {
                     let im = inv_m[a];
-                    let ii = inv_i[a];
                     let (vxa, vya, wa) = (vx.get(a), vy.get(a), w.get(a));
                     if L && im == 0.0 {
                         // driver keeps the prescribed velocity against contacts and gravity
@@ -61,28 +87,9 @@ impl World {
                     }
                     let vxn = vxa + h * im * fx[a];
                     let vyn = vya + h * im * fy[a];
+                    let wn = wa + h * inv_i[a] * tq[a];
                     vx.set(a, vxn);
                     vy.set(a, vyn);
-                    let ws = wa + h * ii * tq[a]; // explicit moments (springs, friction)
-                    let wn = if IMP && ii > 0.0 {
-                        // walls (spin 0): backward Euler of I ω̇ = −C_w ω
-                        let mut wn = ws / (1.0 + h * ii * cw[a]);
-                        // grains: relax toward the c-weighted mean spin of the partners
-                        // with β = x/(1+2x), x = h C_g / I — backward Euler of the
-                        // relative rate of an equal pair, β ≤ ½ so no mode overshoots
-                        if cr[a] > 0.0 {
-                            let x = h * ii * cr[a];
-                            let beta = x / (1.0 + 2.0 * x);
-                            wn += beta * (sr[a] / cr[a] - wn);
-                        }
-                        if L {
-                            // work of the dashpot step = change of ½Iω² it caused
-                            part.ledger.rolling += 0.5 * (ws * ws - wn * wn) / ii;
-                        }
-                        wn
-                    } else {
-                        ws
-                    };
                     w.set(a, wn);
                     if DRIFT {
                         let xa = x.get(a) + dt * vxn;
@@ -107,6 +114,108 @@ impl World {
             self.ledger += tot.ledger;
         }
         tot.moved
+    }
+
+    /// x ← x + Δt v, θ ← θ + Δt ω, and the skin check (after the implicit dashpot).
+    fn drift_pass(&mut self) -> bool {
+        let dt = self.params.dt;
+        let s = &mut self.state;
+        let n = s.len();
+        let (vx, vy, w) = (&s.vx[..], &s.vy[..], &s.w[..]);
+        let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
+        let lim = 0.25 * self.nl.skin * self.nl.skin;
+        let have_x0 = self.nl.x0.len() == n;
+        let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
+        chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
+            let mut part = Partial::default();
+            for a in lo..hi {
+                unsafe {
+                    let xa = x.get(a) + dt * vx[a];
+                    let ya = y.get(a) + dt * vy[a];
+                    x.set(a, xa);
+                    y.set(a, ya);
+                    th.set(a, th.get(a) + dt * w[a]);
+                    if have_x0 {
+                        let (dx, dy) = (xa - x0[a], ya - y0[a]);
+                        part.moved |= dx * dx + dy * dy > lim;
+                    }
+                }
+            }
+            part
+        });
+        self.partials.iter().any(|p| p.moved)
+    }
+
+    /// One sweep of pairwise backward-Euler rolling-dashpot impulses over a half step
+    /// (module doc), grain pairs in list order, then grain–wall contacts.
+    fn rolling_dashpot<const L: bool>(&mut self) {
+        let h = 0.5 * self.params.dt;
+        let s = &mut self.state;
+        let (w, inv_i, inertia) = (&mut s.w[..], &s.inv_i[..], &s.inertia[..]);
+        let mut led = Ledger::default();
+        for (k, d) in self.proll.iter().enumerate() {
+            if d.c > 0.0 {
+                let (i, j) = (self.nl.pi[k] as usize, self.nl.pj[k] as usize);
+                pair_impulse::<L>(d, h, w, inv_i, inertia, i, Some(j), &mut led);
+            }
+        }
+        let n = w.len();
+        if n > 0 {
+            for (hk, d) in self.wroll.iter().enumerate() {
+                if d.c > 0.0 {
+                    pair_impulse::<L>(d, h, w, inv_i, inertia, hk % n, None, &mut led);
+                }
+            }
+        }
+        if L {
+            self.ledger += led;
+        }
+    }
+}
+
+/// Backward-Euler dashpot impulse between grain `i` and grain `j` (or a wall, spin 0,
+/// infinite inertia) over `h`, clipped by the cap of `d`.
+#[inline(always)]
+fn pair_impulse<const L: bool>(d: &RollDashpot, h: Real, w: &mut [Real], inv_i: &[Real], inertia: &[Real], i: usize, j: Option<usize>, led: &mut Ledger) {
+    let (wj, iij) = match j {
+        Some(j) => (w[j], inv_i[j]),
+        None => (0.0, 0.0),
+    };
+    let wi = w[i];
+    let iii = inv_i[i];
+    let inv_eff = iii + iij;
+    if inv_eff == 0.0 {
+        return;
+    }
+    let u = wi - wj;
+    // u⁺ = u/(1 + h c/I_eff); J = −I_eff (u − u⁺) = −h c u⁺ (impulse on i)
+    let mut jm = -h * d.c * u / (1.0 + h * d.c * inv_eff);
+    // cap on spring + dashpot: M_spring + J/h ∈ [−M_max, M_max]
+    if d.m_max.is_finite() {
+        // |M_spring| < M_max below the cap, so 0 is inside: clipping never reverses J
+        jm = jm.clamp(h * (-d.m_max - d.m_spring), h * (d.m_max - d.m_spring));
+    }
+    let wi_new = wi + iii * jm;
+    w[i] = wi_new;
+    if let Some(j) = j {
+        let wj_new = wj - iij * jm;
+        w[j] = wj_new;
+        if L {
+            led.rolling += 0.5 * inertia[j] * (wj * wj - wj_new * wj_new);
+            if iij == 0.0 {
+                // a driver holds j's spin against −J: its work is external, and dissipated
+                led.external_work += jm * wj;
+                led.rolling += jm * wj;
+            }
+        }
+    }
+    if L {
+        if iii > 0.0 {
+            led.rolling += 0.5 * inertia[i] * (wi * wi - wi_new * wi_new);
+        } else {
+            led.external_work -= jm * wi;
+            led.rolling -= jm * wi;
+        }
     }
 }
 

@@ -112,12 +112,25 @@ pub enum RollingDamping {
     /// Naive explicit dashpot M = −c_r θ̇_r. Stable only for Δt < 2 I_eff / c_r (≈ 2–20 ns
     /// with table 4.2): kept so the pre-flight can refuse it with numbers.
     Explicit,
-    /// Backward-Euler dashpot in the spin update (see `dem::integrate`): exact backward
-    /// Euler of the relative rolling rate for a grain on a wall and for an isolated pair,
-    /// a convex relaxation toward the partners' mean spin with weight ≤ ½ in a network.
-    /// Unconditionally stable and monotone; for c_r h/I → 0 it reduces to the explicit
-    /// dashpot.
+    /// Pairwise backward-Euler impulses in the spin update (see `dem::integrate`): for each
+    /// contact in a fixed order, the relative rolling rate u = ω_i − ω_j relaxes as
+    /// u⁺ = u/(1 + h c_r/I_eff), I_eff = I_iI_j/(I_i+I_j), by an equal and opposite
+    /// impulse. Conserves ΣIω exactly, never raises E_rot, unconditionally stable; for
+    /// c_r h/I → 0 it reduces to the explicit dashpot.
     Implicit,
+}
+
+/// Which moments the rolling cap μ_r r_eff F_n limits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RollingModel {
+    /// Iwashita & Oda (1998) as used by Ai et al. (2011), "type C" EPSD: the spring is
+    /// capped; the dashpot acts (uncapped) while the spring is below the cap. With table
+    /// 4.2's c_r = 0.1 (c_r Δt/I ≈ 10²–10³) it locks relative rolling below the cap.
+    Epsd,
+    /// Spring and dashpot capped together, |M_k + M_d| ≤ μ_r r_eff F_n, as the tangential
+    /// force and as LAMMPS `pair granular … rolling sds`.
+    Capped,
 }
 
 /// Rolling resistance, elastic-plastic spring-dashpot after Iwashita & Oda (1998) in the
@@ -141,10 +154,12 @@ pub struct RollingParams {
     pub mu_r: Real,
     /// Integration of the dashpot; see [`RollingDamping`]. Default implicit.
     pub damping: RollingDamping,
+    /// What the cap limits; see [`RollingModel`].
+    pub model: RollingModel,
 }
 
 impl Default for RollingParams {
-    fn default() -> Self { Self { enabled: true, kr: 1.0e3, cr: 0.1, mu_r: 0.3, damping: RollingDamping::Implicit } }
+    fn default() -> Self { Self { enabled: true, kr: 1.0e3, cr: 0.1, mu_r: 0.3, damping: RollingDamping::Implicit, model: RollingModel::Epsd } }
 }
 
 /// Watchdog thresholds (checked every `every` steps).

@@ -12,7 +12,7 @@ use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
 use crate::dem::state::State;
 use crate::dem::walls::Wall;
-use crate::dem::world::World;
+use crate::dem::world::{SavedHistories, World};
 use crate::math::{PI, Real};
 use serde::{Deserialize, Serialize};
 
@@ -145,6 +145,20 @@ pub struct Column {
     pub packing_fraction_core: Real,
     /// Final settling report.
     pub settle: SettleReport,
+    /// Contact histories of the settled state (walls indexed as in [`box_walls`]), so a
+    /// restart keeps its tangential and rolling springs.
+    pub histories: SavedHistories,
+}
+
+impl Column {
+    /// A world of this column inside `walls` (indexed as [`box_walls`] for the first
+    /// three), with the settled contact histories restored.
+    pub fn world(&self, params: &DemParams, walls: Vec<Wall>) -> Result<World, DemError> {
+        let mut w = World::new(params.clone(), self.state.clone(), walls, None)?;
+        w.restore_histories(&self.histories);
+        w.reset_ledger();
+        Ok(w)
+    }
 }
 
 /// Packing fraction of the grains whose centres lie in the rectangle, Σπr²/area.
@@ -236,14 +250,33 @@ pub fn deposited_column(radii: &[Real], l0: Real, h0: Real, run: &DemParams, dep
 }
 
 fn finish_column(s: State, l0: Real, run: &DemParams, ratio: Real, max_time: Real) -> Result<Column, DemError> {
-    let mut w = World::new(run.clone(), s, box_walls(l0), None)?;
+    let w = World::new(run.clone(), s, box_walls(l0), None)?;
+    settled_column(w, l0, ratio, max_time)
+}
+
+impl Column {
+    /// This column re-settled behind its gate with other solver parameters (another
+    /// contact stiffness or step): the overlap energy the change releases is drained by
+    /// kinetic damping, then the column settles to (E_k + E_rot)/E_p < `ratio`. Contact
+    /// histories start afresh (springs stored at another stiffness mean other forces).
+    pub fn resettled(&self, run: &DemParams, ratio: Real, max_time: Real) -> Result<Column, DemError> {
+        let mut s = self.state.clone();
+        s.stop();
+        let mut w = World::new(run.clone(), s, box_walls(self.l0), None)?;
+        quench(&mut w, ratio, 40_000)?;
+        settled_column(w, self.l0, ratio, max_time)
+    }
+}
+
+fn settled_column(mut w: World, l0: Real, ratio: Real, max_time: Real) -> Result<Column, DemError> {
     let settle = settle(&mut w, ratio, 0.005, max_time)?;
+    let histories = w.saved_histories();
     let s = w.state;
     let h0 = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
     let packing_fraction = s.solid_area() / (l0 * h0);
     let d = 2.0 * s.radius_stats().1;
     let packing_fraction_core = packing_fraction_window(&s, 2.0 * d, l0 - 2.0 * d, 2.0 * d, h0 - 2.0 * d);
-    Ok(Column { state: s, l0, h0, packing_fraction, packing_fraction_core, settle })
+    Ok(Column { state: s, l0, h0, packing_fraction, packing_fraction_core, settle, histories })
 }
 
 /// Monodisperse hexagonal lattice of diameter `d` filling L_0 × H_0 (touching grains,

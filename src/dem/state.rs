@@ -32,12 +32,21 @@ impl ContactKey {
 /// tangential spring is a scalar along t = perp(n): that *is* the projection of the stored
 /// spring into the current tangent plane, with its magnitude kept (LAMMPS rotates and
 /// rescales a 3-vector to get the same effect).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+///
+/// The force and moment of the last evaluation are kept so that the work of a step is
+/// booked by the trapezoid rule, ½(F_old + F_new)·Δu: exact for a spring in pure stick,
+/// where end-of-step force × displacement books a spurious ½kΔξ² every step.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct ContactState {
     /// Tangential spring elongation ξ_t along t [m].
     pub tangential: Real,
     /// Rolling spring rotation θ_r [rad].
     pub rolling: Real,
+    /// Tangential force of the last evaluation, along t [N/m].
+    pub ft: Real,
+    /// Rolling moment on body i of the last evaluation (spring, plus the dashpot when it is
+    /// explicit) [N·m/m].
+    pub mr: Real,
 }
 
 /// How a grain moves.
@@ -146,6 +155,16 @@ impl State {
             s += r;
         }
         (lo, s / self.r.len().max(1) as Real, hi)
+    }
+    /// Volume (area) mean diameter Σd·πr²/Σπr² = 2Σr³/Σr² [m] — the chapter's d̄ (1.15 mm
+    /// for PSD-COL), used by D01's link gap and D10's tolerance.
+    pub fn volume_mean_diameter(&self) -> Real {
+        let (mut s3, mut s2) = (0.0, 0.0);
+        for &r in &self.r {
+            s3 += r * r * r;
+            s2 += r * r;
+        }
+        if s2 > 0.0 { 2.0 * s3 / s2 } else { 0.0 }
     }
     /// Set all velocities and spins to zero.
     pub fn stop(&mut self) {

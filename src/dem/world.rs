@@ -13,7 +13,7 @@
 //! chunk by chunk in chunk order. Nothing depends on the thread count, so results are
 //! bit-identical for any number of threads.
 
-use crate::dem::contact_law::{Law, LawCoeffs, PairIn};
+use crate::dem::contact_law::{Law, LawCoeffs, PairIn, RollDashpot};
 use crate::dem::energy::{Balance, Energies, Ledger};
 use crate::dem::error::DemError;
 use crate::dem::neighbors::NeighborList;
@@ -24,6 +24,7 @@ use crate::dem::timers::PhaseTimers;
 use crate::dem::walls::Wall;
 use crate::math::{Real, Vec2};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Pairs per parallel work unit (fixed: the reduction order must not depend on threads).
@@ -75,6 +76,15 @@ pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl
     (0..nc).into_par_iter().map(|c| f(c * chunk, ((c + 1) * chunk).min(n))).collect_into_vec(out);
 }
 
+/// Contact histories of a settled state (see [`World::saved_histories`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SavedHistories {
+    /// Grain pairs (i < j) and their history.
+    pub pairs: Vec<(u32, u32, ContactState)>,
+    /// Grain–wall contacts: (wall index, grain, history).
+    pub walls: Vec<(u32, u32, ContactState)>,
+}
+
 /// Diagnostics of the last step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepInfo {
@@ -117,15 +127,12 @@ pub struct World {
     pub(crate) fx: Vec<Real>,
     pub(crate) fy: Vec<Real>,
     pub(crate) tq: Vec<Real>,
-    /// Σ c_r over a grain's elastic rolling contacts with other grains (implicit dashpot).
-    pub(crate) c_roll: Vec<Real>,
-    /// Σ c_r ω_j over the same contacts.
-    pub(crate) s_roll: Vec<Real>,
-    /// Σ c_r over a grain's elastic rolling contacts with walls (partner spin 0).
-    pub(crate) c_wall: Vec<Real>,
+    /// Implicit rolling dashpot per grain–wall contact (index `wall * n + grain`).
+    pub(crate) wroll: Vec<RollDashpot>,
     /// Per-pair output [f_x, f_y, torque_i, torque_j] (one cache line per two pairs).
     pub(crate) pout: Vec<[Real; 4]>,
-    pub(crate) pcr: Vec<Real>,
+    /// Implicit rolling dashpot per listed pair (`c = 0`: none).
+    pub(crate) proll: Vec<RollDashpot>,
     pub(crate) partials: Vec<Partial>,
     pub(crate) forces_valid: bool,
     /// Inactive walls whose contact histories have been released.
@@ -166,13 +173,11 @@ impl World {
             fx: Vec::new(),
             fy: Vec::new(),
             tq: Vec::new(),
-            c_roll: Vec::new(),
-            s_roll: Vec::new(),
-            c_wall: Vec::new(),
+            wroll: Vec::new(),
             pout: Vec::new(),
             wall_cleared: [false; MAX_WALLS],
             walls_seen: Vec::new(),
-            pcr: Vec::new(),
+            proll: Vec::new(),
             partials: Vec::new(),
             forces_valid: false,
         };
@@ -186,10 +191,12 @@ impl World {
     /// kept; after removing grains build a new `World` instead).
     pub fn resize_scratch(&mut self) {
         let n = self.state.len();
-        for v in [&mut self.fx, &mut self.fy, &mut self.tq, &mut self.c_roll, &mut self.s_roll, &mut self.c_wall] {
+        for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
             v.clear();
             v.resize(n, 0.0);
         }
+        self.wroll.clear();
+        self.wroll.resize(MAX_WALLS * n, RollDashpot::default());
         // keep wall histories of grains that still exist (grains appended at the end)
         let old_n = self.wall_hist.len() / MAX_WALLS;
         let mut wh = vec![ContactState::default(); MAX_WALLS * n];
@@ -218,7 +225,7 @@ impl World {
         self.state = s;
         let np = self.nl.len();
         self.pout.resize(np, [0.0; 4]);
-        self.pcr.resize(np, 0.0);
+        self.proll.resize(np, RollDashpot::default());
     }
 
     /// Forces must be recomputed before the next kick (after external state edits that
@@ -351,7 +358,7 @@ impl World {
         let lx = self.periodic_x.unwrap_or(0.0);
         let (pi, pj, shift, cn, rr) = (&nl.pi, &nl.pj, &nl.shift, &nl.cn, &nl.r_roll);
         let hist = Ptr(nl.hist.as_mut_ptr());
-        let (pout, pcr) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.pcr.as_mut_ptr()));
+        let (pout, proll) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.proll.as_mut_ptr()));
         let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
         chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
@@ -374,7 +381,7 @@ impl World {
                             hist.set(k, ContactState::default());
                         }
                         pout.set(k, [0.0; 4]);
-                        if IMP { pcr.set(k, 0.0); }
+                        if IMP { proll.set(k, RollDashpot::default()); }
                     }
                     continue;
                 }
@@ -403,7 +410,7 @@ impl World {
                     let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
                     hist.set(k, h);
                     pout.set(k, [o.f.x, o.f.y, o.t_i, o.t_j]);
-                    if IMP { pcr.set(k, o.c_roll); }
+                    if IMP { proll.set(k, o.roll); }
                     if L {
                         part.ledger.normal_damping += o.work.normal;
                         part.ledger.tangential += o.work.tangential;
@@ -422,23 +429,18 @@ impl World {
         let n = s.len();
         let g = self.params.gravity;
         let (istart, jstart, jlist) = (&nl.istart, &nl.jstart, &nl.jlist);
-        let (pout, pcr) = (&self.pout[..], &self.pcr[..]);
-        let (fx, fy, tq, cr, sr) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.c_roll.as_mut_ptr()), Ptr(self.s_roll.as_mut_ptr()));
-        let cw = Ptr(self.c_wall.as_mut_ptr());
+        let pout = &self.pout[..];
+        let (fx, fy, tq) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()));
         let m = &s.m[..];
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             for a in lo..hi {
-                let (mut ax, mut ay, mut at, mut ac, mut asr) = (0.0, -m[a] * g, 0.0, 0.0, 0.0);
+                let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
                 // pairs where a is i: contiguous, sequential reads
                 for k in istart[a] as usize..istart[a + 1] as usize {
                     let o = &pout[k];
                     ax += o[0];
                     ay += o[1];
                     at += o[2];
-                    if IMP {
-                        ac += pcr[k];
-                        asr += pcr[k] * w[pj[k] as usize];
-                    }
                 }
                 // pairs where a is j
                 for &k in &jlist[jstart[a] as usize..jstart[a + 1] as usize] {
@@ -447,20 +449,11 @@ impl World {
                     ax -= o[0];
                     ay -= o[1];
                     at += o[3];
-                    if IMP {
-                        ac += pcr[k];
-                        asr += pcr[k] * w[pi[k] as usize];
-                    }
                 }
                 unsafe {
                     fx.set(a, ax);
                     fy.set(a, ay);
                     tq.set(a, at);
-                    if IMP {
-                        cr.set(a, ac);
-                        cw.set(a, 0.0);
-                        sr.set(a, asr);
-                    }
                 }
             }
             Partial::default()
@@ -485,7 +478,7 @@ impl World {
         let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
         let wcn = &self.wall_cn[..];
         let hist = Ptr(self.wall_hist.as_mut_ptr());
-        let (fx, fy, tq, cw) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.c_wall.as_mut_ptr()));
+        let (fx, fy, tq, wroll) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.wroll.as_mut_ptr()));
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
             for (wi, wall) in walls.iter().enumerate() {
@@ -496,6 +489,7 @@ impl World {
                     let overlap = r[a] - wall.distance(p);
                     if overlap <= 0.0 {
                         unsafe {
+                            if IMP { wroll.set(hk, RollDashpot::default()); }
                             let h = hist.get(hk);
                             if h != ContactState::default() {
                                 if L {
@@ -531,7 +525,7 @@ impl World {
                         fx.set(a, fx.get(a) + o.f.x);
                         fy.set(a, fy.get(a) + o.f.y);
                         tq.set(a, tq.get(a) + o.t_i);
-                        if IMP { cw.set(a, cw.get(a) + o.c_roll); }
+                        if IMP { wroll.set(hk, o.roll); }
                         part.wall_force[wi] -= o.f;
                         if L {
                             part.ledger.wall_normal += o.work.normal;
@@ -561,6 +555,9 @@ impl World {
                 continue;
             }
             if self.wall_cleared[wi] { continue; }
+            for r in &mut self.wroll[wi * n..(wi + 1) * n] {
+                *r = RollDashpot::default();
+            }
             for h in &mut self.wall_hist[wi * n..(wi + 1) * n] {
                 if L {
                     let (et, er) = Law::<R, IMP, L>::released(&coeffs, h);
@@ -644,6 +641,48 @@ impl World {
 
     /// Contact history between grains a and b, if listed.
     pub fn contact_history(&self, a: u32, b: u32) -> Option<ContactState> { self.nl.history(a, b) }
+
+    /// Contact histories worth keeping across a restart: grain pairs and grain–wall
+    /// contacts whose springs hold something.
+    pub fn saved_histories(&self) -> SavedHistories {
+        let n = self.state.len();
+        let pairs = (0..self.nl.len())
+            .filter(|&k| self.nl.hist[k] != ContactState::default())
+            .map(|k| (self.nl.pi[k], self.nl.pj[k], self.nl.hist[k]))
+            .collect();
+        let walls = (0..self.walls.len())
+            .flat_map(|wi| (0..n).map(move |a| (wi, a)))
+            .filter(|&(wi, a)| self.wall_hist[wi * n + a] != ContactState::default())
+            .map(|(wi, a)| (wi as u32, a as u32, self.wall_hist[wi * n + a]))
+            .collect();
+        SavedHistories { pairs, walls }
+    }
+
+    /// Restore contact histories saved by [`World::saved_histories`] on the same grains
+    /// (a restarted column keeps its settled tangential and rolling springs). Pairs that
+    /// are not listed now (moved apart) and walls that do not exist are skipped; returns
+    /// how many histories were restored.
+    pub fn restore_histories(&mut self, h: &SavedHistories) -> usize {
+        let n = self.state.len();
+        let mut restored = 0;
+        for &(a, b, st) in &h.pairs {
+            let key = crate::dem::state::ContactKey::new(a, b);
+            let (Some(&lo), Some(&hi)) = (self.nl.istart.get(key.i as usize), self.nl.istart.get(key.i as usize + 1)) else { continue };
+            if let Some(k) = (lo as usize..hi as usize).find(|&k| self.nl.pj[k] == key.j) {
+                self.nl.hist[k] = st;
+                restored += 1;
+            }
+        }
+        for &(wi, a, st) in &h.walls {
+            let (wi, a) = (wi as usize, a as usize);
+            if wi < self.walls.len() && a < n {
+                self.wall_hist[wi * n + a] = st;
+                restored += 1;
+            }
+        }
+        self.forces_valid = false;
+        restored
+    }
 
     /// Total contact + gravity force on grain i from the last evaluation [N/m].
     pub fn force(&self, i: usize) -> Vec2 { Vec2::new(self.fx[i], self.fy[i]) }

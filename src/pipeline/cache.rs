@@ -208,10 +208,16 @@ pub fn result_json(stage: &str, profile: &str, out: &Output) -> Value {
         "stage": stage,
         "profile": profile,
         "scalars": scalars,
-        "claims": out.claims.iter().map(|c| serde_json::json!({
-            "id": c.id, "statement": c.statement,
-            "paper": finite(c.paper), "ours": finite(c.ours), "tolerance": finite(c.tolerance), "pass": c.pass,
-        })).collect::<Vec<_>>(),
+        "claims": out.claims.iter().map(claim_json).collect::<Vec<_>>(),
+        "checks": out.checks.iter().map(claim_json).collect::<Vec<_>>(),
+    })
+}
+
+fn claim_json(c: &crate::pipeline::context::Claim) -> Value {
+    serde_json::json!({
+        "id": c.id, "statement": c.statement,
+        "paper": finite(c.paper), "ours": finite(c.ours), "tolerance": finite(c.tolerance), "pass": c.pass,
+        "calibrated": c.calibrated,
     })
 }
 

@@ -10,7 +10,9 @@ use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-/// A check of one of the chapter's quantitative claims against our number.
+/// One of the chapter's quantitative claims against our number — or, in
+/// [`Output::checks`], a consistency check (an input, an identity, a numerical condition)
+/// that uses the same shape but is never counted as a reproduced claim.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Claim {
     /// Stable id, e.g. `geostatic-stress`.
@@ -25,13 +27,17 @@ pub struct Claim {
     pub tolerance: f64,
     /// |ours − paper| ≤ tolerance.
     pub pass: bool,
+    /// Ours depends on a parameter we tuned to hit this or another claim: shown
+    /// "calibrated" wherever it appears, never as independent agreement.
+    #[serde(default)]
+    pub calibrated: bool,
 }
 
 impl Claim {
     /// Build a claim with an absolute tolerance.
     pub fn abs(id: &str, statement: &str, paper: f64, ours: f64, tolerance: f64) -> Claim {
         let pass = ours.is_finite() && (ours - paper).abs() <= tolerance;
-        Claim { id: id.into(), statement: statement.into(), paper, ours, tolerance, pass }
+        Claim { id: id.into(), statement: statement.into(), paper, ours, tolerance, pass, calibrated: false }
     }
     /// Build a claim with a relative tolerance (fraction of |paper|).
     pub fn rel(id: &str, statement: &str, paper: f64, ours: f64, rel: f64) -> Claim {
@@ -39,7 +45,12 @@ impl Claim {
     }
     /// A one-sided claim "ours ≤ bound" (paper = bound, tolerance = 0 means ours must not exceed it).
     pub fn at_most(id: &str, statement: &str, bound: f64, ours: f64) -> Claim {
-        Claim { id: id.into(), statement: statement.into(), paper: bound, ours, tolerance: 0.0, pass: ours.is_finite() && ours <= bound }
+        Claim { id: id.into(), statement: statement.into(), paper: bound, ours, tolerance: 0.0, pass: ours.is_finite() && ours <= bound, calibrated: false }
+    }
+    /// Mark as resting on a calibrated parameter.
+    pub fn calibrated(mut self) -> Claim {
+        self.calibrated = true;
+        self
     }
 }
 
@@ -50,8 +61,11 @@ pub struct Output {
     pub tables: Vec<(String, DataFrame)>,
     /// Named scalars (SI units, or nondimensional as the chapter defines them).
     pub scalars: BTreeMap<String, f64>,
-    /// Claim checks.
+    /// The chapter's results that our simulations reproduce or not.
     pub claims: Vec<Claim>,
+    /// Consistency checks: inputs, identities, numerical conditions (never counted as
+    /// reproduced claims).
+    pub checks: Vec<Claim>,
     /// Named SVG figures (`figure` is the main one).
     pub figures: Vec<(String, String)>,
     /// Extra files (Markdown tables, VTK snapshots): name with extension → bytes.

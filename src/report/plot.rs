@@ -29,12 +29,19 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Palette index (same index = same colour across figures).
     pub color: usize,
+    /// Symmetric y error per point (± spread over seeds), drawn as bars.
+    pub y_err: Option<Vec<f64>>,
 }
 
 impl Series {
     /// New series.
     pub fn new(label: impl Into<String>, style: Style, points: Vec<(f64, f64)>, color: usize) -> Series {
-        Series { label: label.into(), style, points, color }
+        Series { label: label.into(), style, points, color, y_err: None }
+    }
+    /// The same series with ± `err` bars (one per point).
+    pub fn with_errors(mut self, err: Vec<f64>) -> Series {
+        self.y_err = Some(err);
+        self
     }
 }
 
@@ -162,6 +169,19 @@ impl Chart {
                             .filter(|(x, y)| x.is_finite() && y.is_finite() && (!self.x_log || *x > 0.0) && (!self.y_log || *y > 0.0))
                             .collect();
                         let legend_style = c.stroke_width(2);
+                        if let Some(err) = &s.y_err {
+                            let bars: Vec<Vec<(f64, f64)>> = s
+                                .points
+                                .iter()
+                                .zip(err)
+                                .filter(|((x, y), e)| x.is_finite() && y.is_finite() && e.is_finite() && (!self.x_log || *x > 0.0) && (!self.y_log || *y > 0.0))
+                                .map(|(&(x, y), &e)| {
+                                    let lo = if self.y_log { (y - e).max(y * 1e-3) } else { y - e };
+                                    vec![(x, lo), (x, y + e)]
+                                })
+                                .collect();
+                            chart.draw_series(bars.into_iter().map(|b| PathElement::new(b, c.stroke_width(1)))).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                        }
                         match s.style {
                             Style::Line => {
                                 chart.draw_series(LineSeries::new(pts, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?

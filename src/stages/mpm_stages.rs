@@ -125,7 +125,7 @@ fn run_geostatic(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("friction_angle_deg", p.mpm.material.friction_deg)
         .scalar("youngs_modulus_pa", p.mpm.material.young_pa)
         .scalar("geostatic_steps", g.report.steps as f64);
-    out.claims.push(Claim::rel(
+    out.checks.push(Claim::rel(
         "geostatic-stress",
         "σ_yy at the base = −ρg(H_0 − y) (fig4-04b; max ≈ ρgH_0 = 1.18 kPa for H_0 = 62.4 mm)",
         g.base_sigma_yy_analytic,
@@ -184,7 +184,7 @@ fn run_geostatic(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-geostatic`.
 pub const GEOSTATIC_KIND: Kind = Kind {
     name: "mpm-geostatic",
-    version: 1,
+    version: 2,
     about: "fig4-04: MPM a = 1 column, material points in the mesh and geostatic vertical stress",
     params: typed::<GeostaticParams>,
     run: run_geostatic,
@@ -199,6 +199,9 @@ pub struct CollapseParams {
     pub mpm: MpmParams,
     /// Aspect ratio a = H_0/L_0 (column area of the DEM columns, figures.md SC-COL).
     pub a: f64,
+    /// Column area L_0·H_0 [m²]: the DEM columns' (stages/col-dem-prep.yaml), so DEM and
+    /// MPM columns of one profile have the same L_0 and H_0 (figures.md I11).
+    pub area_m2: f64,
     /// Run control (sampling, stop criterion, snapshots).
     pub run: CollapseOptions,
     /// Take φ and E from the DEM calibration inputs when declared.
@@ -210,7 +213,7 @@ pub struct CollapseParams {
 
 impl Default for CollapseParams {
     fn default() -> Self {
-        CollapseParams { mpm: MpmParams::default(), a: 0.4, run: CollapseOptions::default(), use_dem_calibration: true, vtk: false }
+        CollapseParams { mpm: MpmParams::default(), a: 0.4, area_m2: crate::mpm::column::DEM_COLUMN_AREA, run: CollapseOptions::default(), use_dem_calibration: true, vtk: false }
     }
 }
 
@@ -219,6 +222,7 @@ impl Validate for CollapseParams {
         let mut c = Checker::new("");
         check_mpm(&self.mpm, &mut c);
         c.in_closed("a", self.a, 0.05, 20.0);
+        c.check(self.area_m2.is_finite() && self.area_m2 > 1e-6 && self.area_m2 < 10.0, "area_m2", self.area_m2, "in (1e-6, 10) m²");
         c.positive("run.sample_every_tau", self.run.sample_every_tau);
         c.check(self.run.max_time_tau > self.run.min_time_tau, "run.max_time_tau", self.run.max_time_tau, "> run.min_time_tau");
         c.issues
@@ -254,7 +258,7 @@ pub fn series_table(r: &CollapseResult, g: f64) -> anyhow::Result<polars::prelud
 fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut p: CollapseParams = decode(ctx)?;
     let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
-    let spec = ColumnSpec::from_aspect(p.a);
+    let spec = ColumnSpec::from_area(p.a, p.area_m2);
     let t_end = p.run.max_time_tau * spec.tau_c(p.mpm.gravity);
     let r = crate::mpm::column::collapse_with_progress(&p.mpm, spec, &p.run, &mut |s, _| ctx.set_progress(s.t / t_end))?;
     let g = p.mpm.gravity;
@@ -360,6 +364,8 @@ pub struct WorkPrecisionParams {
     pub mpm: MpmParams,
     /// Aspect ratio.
     pub a: f64,
+    /// Column area L_0·H_0 [m²] (as the DEM columns of the profile).
+    pub area_m2: f64,
     /// Points per cell to sweep.
     pub ppc: Vec<u32>,
     /// Cell sizes to sweep [m].
@@ -379,6 +385,7 @@ impl Default for WorkPrecisionParams {
         WorkPrecisionParams {
             mpm: MpmParams::default(),
             a: 0.4,
+            area_m2: crate::mpm::column::DEM_COLUMN_AREA,
             ppc: vec![4, 9, 16, 25],
             cell_sizes: vec![2e-3, 4e-3],
             courants: vec![0.5, 0.25],
@@ -412,7 +419,7 @@ impl Validate for WorkPrecisionParams {
 fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut p: WorkPrecisionParams = decode(ctx)?;
     let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
-    let spec = ColumnSpec::from_aspect(p.a);
+    let spec = ColumnSpec::from_area(p.a, p.area_m2);
     let mut configs: Vec<(u32, f64, f64)> = Vec::new();
     for &h in &p.cell_sizes {
         for &n in &p.ppc {

@@ -143,9 +143,9 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("ks_distance", ks)
         .scalar("n", s.n as f64)
         .scalar("seed", psd.seed as f64);
-    out.claims.push(Claim::rel("mean-diameter", "\"mean grain diameter of 1.15mm\" (volume mean of the sampled grains)", p.paper_mean_mm, s.d_mean_volume * 1e3, 0.01));
-    out.claims.push(Claim::abs("polydispersity", "\"poly-dispersity r = d_max/d_min = 1.5\"", 1.5, psd.d_max_mm / psd.d_min_mm, 1e-9));
-    out.claims.push(Claim::at_most("ks-distance", "sampled grains follow the target distribution (Kolmogorov distance < 0.05, figures.md fig4-01)", p.ks_max, ks));
+    out.checks.push(Claim::rel("mean-diameter", "\"mean grain diameter of 1.15mm\" (volume mean of the sampled grains)", p.paper_mean_mm, s.d_mean_volume * 1e3, 0.01));
+    out.checks.push(Claim::abs("polydispersity", "\"poly-dispersity r = d_max/d_min = 1.5\"", 1.5, psd.d_max_mm / psd.d_min_mm, 1e-9));
+    out.checks.push(Claim::at_most("ks-distance", "sampled grains follow the target distribution (Kolmogorov distance < 0.05, figures.md fig4-01)", p.ks_max, ks));
     // Thin the grain markers for a readable figure (every k-th grain, deterministic).
     let step = (sorted.len() / 150).max(1);
     let grains: Vec<(f64, f64)> = sorted.iter().zip(&cdf).step_by(step).map(|(x, c)| (x * 1e3, 100.0 * c)).collect();
@@ -157,7 +157,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
         x_range: Some((psd.d_min_mm - 0.02, psd.d_max_mm + 0.02)),
         y_range: Some((0.0, 100.0)),
         series: vec![
-            Series::new(format!("target: cumulative β({}, {}) by volume", psd.beta_a, psd.beta_b), Style::Line, dd.iter().zip(&target).map(|(x, y)| (x * 1e3, *y)).collect(), 7),
+            Series::new(format!("target: Graded a={}, b={}, r={} (cumulative β by volume)", psd.beta_a, psd.beta_b, psd.d_max_mm / psd.d_min_mm), Style::Line, dd.iter().zip(&target).map(|(x, y)| (x * 1e3, *y)).collect(), 7),
             Series::new(format!("sampled grains (every {step}th shown)"), Style::Points, grains, 0),
         ],
         ..Default::default()
@@ -169,7 +169,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `psd-figure`.
 pub const FIGURE_KIND: Kind = Kind {
     name: "psd-figure",
-    version: 1,
+    version: 2,
     about: "fig4-01b: cumulative % finer of sampled grains vs the target grading",
     params: typed::<PsdFigureParams>,
     run: run_psd_figure,

@@ -134,16 +134,16 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
             let wall_deg = p.dem.wall.friction.atan().to_degrees();
             rows.add("check: atan(DEM wall friction)", format!("{wall_deg:.2}"), "°", "stages/dem-column.yaml");
             out.scalar("dem_wall_friction_angle_deg", wall_deg);
-            out.claims.push(Claim::abs("wall-friction-angle", "DEM wall friction 0.466 ↔ wall friction angle 24.8 ± 0.2° (atan 0.466 = 24.99°)", l.wall_friction_angle_deg[0], wall_deg, l.wall_friction_angle_deg[1]));
+            out.checks.push(Claim::abs("wall-friction-angle", "DEM wall friction 0.466 ↔ wall friction angle 24.8 ± 0.2° (atan 0.466 = 24.99°)", l.wall_friction_angle_deg[0], wall_deg, l.wall_friction_angle_deg[1]));
             if let Some(psd) = &psd {
                 let mean = 0.5 * (psd.d_min_mm + psd.d_max_mm);
                 rows.add("check: PSD volume-mean diameter", format!("{mean:.3}"), "mm", "stages/psd-col.yaml");
-                out.claims.push(Claim::rel("mean-diameter", "mean grain diameter 1.15 mm = midpoint of the uniform-by-volume PSD", l.mean_diameter_mm, mean, 0.005));
+                out.checks.push(Claim::rel("mean-diameter", "mean grain diameter 1.15 mm = midpoint of the uniform-by-volume PSD", l.mean_diameter_mm, mean, 0.005));
             }
             if let Some(shear) = ctx.input_opt("shear") {
                 let phi = shear.scalar("friction_angle_deg")?;
                 rows.add("check: DEM critical-state friction angle", format!("{phi:.2}"), "°", "periodic shear test (stage shear-dem)");
-                out.claims.push(Claim::abs("repose-vs-critical-state", "repose angle 22 ± 0.5° ↔ critical-state friction angle 22.2° (C1)", l.repose_angle_deg[0], phi, 1.0));
+                out.checks.push(Claim::abs("repose-vs-critical-state", "repose angle 22 ± 0.5° ↔ critical-state friction angle 22.2° (C1)", l.repose_angle_deg[0], phi, 1.0));
             }
         }
         Which::Tab402 => {
@@ -178,8 +178,8 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
             rows.add("derived: C_n mean–mean pair (eq 4.4)", format!("{cn:.1}"), "N·s/m", "eq 4.4, 2D masses");
             rows.add("used: damping ratio for exact ε without attraction", format!("{:.5}", m.grain.damping_ratio()), "–", "granrepro (see src/dem/params.rs)");
             out.scalar("kn_4er_n_per_m", kn_4er).scalar("damping_ratio_eq45", gamma).scalar("damping_ratio_used", m.grain.damping_ratio()).scalar("cn_mean_pair_ns_per_m", cn);
-            out.claims.push(Claim::rel("kn-equals-4ER", "k_n = 4ER (eq 4.3) = 1.61e8 N/m at the mean radius", m.grain.kn, kn_4er, 0.01));
-            out.claims.push(Claim::rel("damping-ratio", "γ = −ln ε/√(π²+ln²ε) = 0.09119 for ε = 0.75 (figures.md tab4-02)", 0.09119, gamma, 0.001));
+            out.checks.push(Claim::rel("kn-equals-4ER", "k_n = 4ER (eq 4.3) = 1.61e8 N/m at the mean radius", m.grain.kn, kn_4er, 0.01));
+            out.checks.push(Claim::rel("damping-ratio", "γ = −ln ε/√(π²+ln²ε) = 0.09119 for ε = 0.75 (figures.md tab4-02)", 0.09119, gamma, 0.001));
         }
         Which::Tab403 => {
             let m = &p.mpm;
@@ -208,15 +208,15 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
             rows.add("Cohesion (not in the chapter)", g(m.material.cohesion_pa), "Pa", "granrepro choice");
             out.scalar("friction_angle_deg", phi).scalar("youngs_modulus_pa", e).scalar("point_spacing_m", spacing);
             if ctx.profile == "paper" {
-                out.claims.push(Claim::abs("point-spacing", "2 mm/√16 = 0.5 mm material point spacing", 0.5e-3, spacing, 1e-9));
+                out.checks.push(Claim::abs("point-spacing", "2 mm/√16 = 0.5 mm material point spacing", 0.5e-3, spacing, 1e-9));
             } else {
                 out.note(format!("Profile `{}` discretises coarser than table 4.3 (h = {} m, {} PPC): its run-out error is measured by wp-mpm-column.", ctx.profile, m.cell_size, m.ppc));
             }
             if ctx.input_opt("shear").is_some() {
-                out.claims.push(Claim::abs("friction-angle", "\"A critical state friction angle of 22.2° was obtained\" (table 4.3: 22.2 ± 0.2°)", 22.2, phi, 0.2));
+                out.checks.push(Claim::abs("friction-angle", "φ fed to the MPM: the DEM shear test's φ_cs (restates fig4-03's claim, which rests on the calibrated μ_r)", 22.2, phi, 0.2));
             }
             if ctx.input_opt("compression").is_some() {
-                out.claims.push(Claim::rel("youngs-modulus", "E = 1.98e6 N/m² from laterally confined compression (figures.md I12)", 1.98e6, e, 0.25));
+                out.checks.push(Claim::rel("youngs-modulus", "E fed to the MPM: the DEM confined-compression modulus (restates compress-dem's claim)", 1.98e6, e, 0.25));
             }
         }
     }
@@ -228,7 +228,7 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `material-table`.
 pub const KIND: Kind = Kind {
     name: "material-table",
-    version: 2,
+    version: 3,
     about: "tables 4.1–4.3 rendered from the material files the scenes use, with derived checks",
     params: typed::<TableParams>,
     run: run_table,
