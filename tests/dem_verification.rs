@@ -177,7 +177,7 @@ fn settled_layer_floor_reaction_equals_weight() {
     }
     let weight = s.total_mass() * p.gravity;
     let mut w = World::new(p, s, vec![Wall::floor(0.0)], Some(lx)).unwrap();
-    let rep = granrepro::dem::prep::settle(&mut w, 1e-12, 0.03, 0.5).unwrap();
+    let rep = granrepro::dem::prep::settle(&mut w, 1e-11, 0.03, 0.5).unwrap();
     assert!(rep.converged, "{rep:?}");
     let ek = w.energies().ek();
     let f = -w.info.wall_force[0].y;
