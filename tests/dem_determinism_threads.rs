@@ -4,10 +4,12 @@
 use granrepro::dem::prep::{SplitMix64, box_walls, hex_lattice};
 use granrepro::dem::{DemParams, State, World};
 
-/// A hexagonal column of ≈ 1700 touching grains (several pair and grain chunks), with
-/// random spins so that rolling and tangential histories are exercised.
+/// A hexagonal column of ≈ 4900 touching grains — above `PAR_MIN_ITEMS`, so grain and pair
+/// loops both take the parallel path — with random spins so that rolling and tangential
+/// histories are exercised.
 fn packed() -> State {
-    let mut s = hex_lattice(0.04, 0.05, 1.15e-3, 2500.0);
+    let mut s = hex_lattice(0.08, 0.07, 1.15e-3, 2500.0);
+    assert!(s.len() >= granrepro::dem::world::PAR_MIN_ITEMS, "{} grains: too few to run in parallel", s.len());
     let mut rng = SplitMix64(7);
     for i in 0..s.len() {
         s.w[i] = 200.0 * (rng.next_f64() - 0.5);
@@ -19,13 +21,13 @@ fn fingerprint(s: &State, threads: usize) -> (Vec<u64>, Vec<u64>) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| {
         let p = DemParams { dt: 2e-7, ..DemParams::default() };
-        let mut w = World::new(p, s.clone(), box_walls(0.04), None).unwrap();
+        let mut w = World::new(p, s.clone(), box_walls(0.08), None).unwrap();
         w.run(1000).unwrap();
         w.walls[2].active = false; // open the gate
         w.run(2000).unwrap();
         let nc = w.contact_count();
         eprintln!("contacts at the end: {nc}, rebuilds {}", w.rebuilds());
-        assert!(nc > 1500, "scene must have contacts");
+        assert!(nc > 4000, "scene must have contacts");
         let s = &w.state;
         let mut bits = Vec::new();
         for v in [&s.x, &s.y, &s.vx, &s.vy, &s.w, &s.theta] {

@@ -37,3 +37,18 @@ fn table_4_3_override_is_available_for_comparison() {
     let got = changed(&["col-mpm.use_dem_calibration=false"]);
     assert_eq!(got, ["col-mpm-a0.4".to_string()].into_iter().collect());
 }
+
+#[test]
+fn the_joint_calibration_reaches_every_dem_scene_through_the_dag() {
+    // A calibration target changed: calib-dem's key changes and, through its `calibration`
+    // input, every DEM scene that reads μ_r and the rolling model — shear, compression,
+    // collapses, work-precision — and what the MPM reads from them. The grid points and
+    // the prepared columns are upstream and stay cached.
+    let got = changed(&["calib-dem.runout_tolerance=0.2"]);
+    for id in ["calib-dem", "fig4-03", "compress-dem", "col-dem-a0.4", "col-dem-a6", "col-dem-no-rolling-damper", "wp-dem-column", "fig4-04", "col-mpm-a0.4", "tab4-03"] {
+        assert!(got.contains(id), "{id} not reached: {got:?}");
+    }
+    for id in ["calib-point-mu_r0.1", "calib-point-capped-mu_r0.1", "col-dem-prep-a0.4", "col-dem-prep-a6", "psd-col", "fig4-23"] {
+        assert!(!got.contains(id), "{id} should stay cached: {got:?}");
+    }
+}

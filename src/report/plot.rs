@@ -182,27 +182,22 @@ impl Chart {
                                 .collect();
                             chart.draw_series(bars.into_iter().map(|b| PathElement::new(b, c.stroke_width(1)))).map_err(|e| anyhow::anyhow!("{e:?}"))?;
                         }
-                        match s.style {
-                            Style::Line => {
-                                chart.draw_series(LineSeries::new(pts, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?
-                                    .label(s.label.as_str())
-                                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style));
-                            }
-                            Style::Dashed => {
-                                chart.draw_series(DashedLineSeries::new(pts, 8, 5, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?
-                                    .label(s.label.as_str())
-                                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], legend_style));
-                            }
-                            Style::Points => {
-                                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| anyhow::anyhow!("{e:?}"))?
-                                    .label(s.label.as_str())
-                                    .legend(move |(x, y)| Circle::new((x + 9, y), 3, c.filled()));
-                            }
+                        let ann = match s.style {
+                            Style::Line => chart.draw_series(LineSeries::new(pts, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?,
+                            Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 8, 5, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?,
+                            Style::Points => chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| anyhow::anyhow!("{e:?}"))?,
                             Style::LinePoints => {
                                 chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(1))).map_err(|e| anyhow::anyhow!("{e:?}"))?;
                                 chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| anyhow::anyhow!("{e:?}"))?
-                                    .label(s.label.as_str())
-                                    .legend(move |(x, y)| Circle::new((x + 9, y), 3, c.filled()));
+                            }
+                        };
+                        // an empty label draws without a legend entry (e.g. the second edge of a band)
+                        if !s.label.is_empty() {
+                            let ann = ann.label(s.label.as_str());
+                            match s.style {
+                                Style::Line => { ann.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style)); }
+                                Style::Dashed => { ann.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], legend_style)); }
+                                Style::Points | Style::LinePoints => { ann.legend(move |(x, y)| Circle::new((x + 9, y), 3, c.filled())); }
                             }
                         }
                     }

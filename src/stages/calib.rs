@@ -137,13 +137,19 @@ fn run_point(ctx: &StageCtx) -> anyhow::Result<Output> {
     let columns = ctx.inputs_of("columns");
     anyhow::ensure!(!columns.is_empty(), "stage `{}` needs `columns` inputs (prepared DEM columns)", ctx.id);
     ctx.set_progress(0.0);
-    let shear = shear_test(&radii, &run, &p.shear)?;
+    let cols = columns.iter().map(|i| super::dem_stages::column_from(i, run.density)).collect::<anyhow::Result<Vec<Column>>>()?;
+    // The shear test and every collapse of every column are independent scenes: run them
+    // side by side (each scene is small and steps on one thread, PAR_MIN_ITEMS).
+    let (shear, ensembles) = rayon::join(
+        || shear_test(&radii, &run, &p.shear),
+        || cols.par_iter().map(|c| collapse_ensemble(c, &run, &p.run, &p.ensemble)).collect::<Vec<_>>(),
+    );
+    let shear = shear?;
     let mut out = Output::default();
     out.scalar("mu_r", p.mu_r).scalar("model_capped", model_code(p.model)).scalar("friction_angle_deg", shear.friction_angle_deg).scalar("stiffness_factor", p.stiffness_factor);
     let (mut ta, mut tm, mut tr, mut tt) = (vec![], vec![], vec![], vec![]);
-    for (ci, input) in columns.iter().enumerate() {
-        let col = super::dem_stages::column_from(input, run.density)?;
-        let rs = collapse_ensemble(&col, &run, &p.run, &p.ensemble)?;
+    for (ci, (col, rs)) in cols.iter().zip(ensembles).enumerate() {
+        let rs = rs?;
         let a = col.h0 / col.l0;
         let dl: Vec<f64> = rs.iter().map(|r| r.delta_l()).collect();
         for (k, r) in rs.iter().enumerate() {
