@@ -4,6 +4,7 @@ pub mod cache;
 pub mod context;
 pub mod dag;
 pub mod diag;
+pub mod fsio;
 pub mod run;
 pub mod spec;
 

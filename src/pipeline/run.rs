@@ -11,7 +11,7 @@ use std::time::Instant;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
 
-use super::cache::{Cache, KeyRecord, Lookup, write_atomic};
+use super::cache::{Cache, KeyRecord, Lookup, STALE_TMP_AGE, write_atomic};
 use super::context::{InputRef, Output, StageCtx};
 use super::dag::closure;
 use super::spec::{Pipeline, Stage};
@@ -290,6 +290,7 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
         return Ok(summary);
     }
 
+    proj.cache.sweep_stale(STALE_TMP_AGE);
     let mp = MultiProgress::with_draw_target(if opts.quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
     let jobs = opts.jobs.max(1);
     let in_set: HashSet<&String> = set.iter().collect();
