@@ -76,8 +76,8 @@ pub enum Cmd {
         /// Print the plan only.
         #[arg(long)]
         dry_run: bool,
-        /// Stages run at once.
-        #[arg(long, default_value_t = 1)]
+        /// Stages run at once (at least 1).
+        #[arg(long, default_value_t = 1, value_parser = parse_jobs)]
         jobs: usize,
         /// Override a parameter: STAGE.KEY=VALUE (part of the cache key).
         #[arg(long = "set")]
@@ -150,6 +150,14 @@ pub enum Cmd {
         #[arg(long)]
         reports: bool,
     },
+}
+
+fn parse_jobs(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("must be at least 1 (the number of stages run at once)".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("`{s}` is not a whole number >= 1")),
+    }
 }
 
 fn project_of(pipeline: &Path) -> Project {
