@@ -237,6 +237,7 @@ fn corpus() -> Vec<Case> {
         case!("status with a bad --set", PSD, &["status", "--set", "p.n=-5"], &["<command line>", "params.n"]),
         case!("list of a bad pipeline", "version: 1\nstages:\n  - id: p\n    kind: psdd\n", &["list"], &[PY, "stages[p].kind"]),
         case!("dag of a bad pipeline", "version: 1\nstages:\n  - id: p\n    kind: psdd\n", &["dag"], &[PY, "stages[p].kind"]),
+        case!("clean with no pipeline file", PSD, &["clean", "--pipeline", "no-such.yaml"], &["no-such.yaml"]),
         case!("run with no pipeline file", PSD, &["run", "--pipeline", "no-such.yaml"], &["no-such.yaml"]),
         // -- simulate (finding 5: errors pointed at the generated file)
         case!("scene unknown key", PSD, &[("scene.yaml", "psd: { n: 50 }\npsdd: {}\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml:2", "psdd"]),

@@ -97,3 +97,52 @@ fn four_processes_sharing_an_input() {
     }
     assert!(failures.is_empty(), "{} of {} runs failed:\n{}", failures.len(), 4 * ROUNDS, failures.join("\n"));
 }
+
+/// Finding 8: a reader that resolves a stage's published set sees the files of one run,
+/// while two runs with different parameters publish over each other.
+#[test]
+fn a_reader_never_sees_files_of_two_runs() {
+    let t = TempProject::new(SMALL);
+    // The two sets the writers publish, made one at a time first.
+    let mut sets = Vec::new();
+    for seed in ["1", "2"] {
+        let (code, _, err) = t.cli(&["run", "--stage", "psd-a", "--quiet", "--set", &format!("psd-a.seed={seed}")]);
+        assert_eq!(code, 0, "{err}");
+        let dir = t.path().join("reports/quick");
+        sets.push((std::fs::read(dir.join("psd-a.csv")).unwrap(), std::fs::read(dir.join("psd-a.json")).unwrap()));
+    }
+    assert_ne!(sets[0].0, sets[1].0);
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let reader = {
+        let stop = stop.clone();
+        let root = t.path().join("reports/quick/.sets");
+        let sets = sets.clone();
+        std::thread::spawn(move || {
+            let (mut reads, mut mixed) = (0, 0);
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                // The documented way to read a consistent set: resolve the pointer once.
+                let Ok(target) = std::fs::read_link(root.join("psd-a")) else { continue };
+                let dir = root.join(target);
+                let (Ok(csv), Ok(json)) = (std::fs::read(dir.join("psd-a.csv")), std::fs::read(dir.join("psd-a.json"))) else { continue };
+                reads += 1;
+                if !sets.iter().any(|(c, j)| *c == csv && *j == json) {
+                    mixed += 1;
+                }
+            }
+            (reads, mixed)
+        })
+    };
+    for i in 0..ROUNDS {
+        let seed = if i % 2 == 0 { "1" } else { "2" };
+        let a = spawn(&t, &["run", "--stage", "psd-a", "--quiet", "--set", &format!("psd-a.seed={seed}")]);
+        let b = spawn(&t, &["run", "--stage", "psd-a", "--quiet", "--set", &format!("psd-a.seed={}", if seed == "1" { "2" } else { "1" })]);
+        for ch in [a, b] {
+            let out = ch.wait_with_output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        }
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let (reads, mixed) = reader.join().unwrap();
+    assert!(reads > 0, "the reader never saw a published set");
+    assert_eq!(mixed, 0, "{mixed} of {reads} reads mixed two runs");
+}

@@ -6,6 +6,7 @@ pub mod context;
 pub mod dag;
 pub mod diag;
 pub mod fsio;
+pub mod publish;
 pub mod run;
 pub mod spec;
 

@@ -119,7 +119,8 @@ pub struct Stage {
     pub inputs: Vec<(String, Vec<String>)>,
     /// Line of the entry in pipeline.yaml.
     pub line: Option<usize>,
-    /// `--set` overrides applied to this stage (`STAGE.KEY=VALUE`).
+    /// `--set` overrides applied to this stage or to any stage upstream of it
+    /// (`STAGE.KEY=VALUE`).
     pub overrides: Vec<String>,
 }
 
@@ -277,6 +278,22 @@ fn attribute(layers: &[LayerRef], key: &str, path: &Path, line: Option<usize>) -
         }
     }
     (path.to_path_buf(), line)
+}
+
+/// A stage computed from an overridden input is overridden too: give each stage (in
+/// topological order) the `--set` overrides of everything upstream.
+fn inherit_overrides(stages: &mut [Stage], index: &HashMap<String, usize>) {
+    for i in 0..stages.len() {
+        let mut all = stages[i].overrides.clone();
+        for id in stages[i].inputs.iter().flat_map(|(_, ids)| ids.iter()) {
+            for o in index.get(id).map(|&j| stages[j].overrides.clone()).unwrap_or_default() {
+                if !all.contains(&o) {
+                    all.push(o);
+                }
+            }
+        }
+        stages[i].overrides = all;
+    }
 }
 
 /// Every id the raw stage entries define (base ids and matrix member ids), for
@@ -724,8 +741,9 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
     // Topological order; report a cycle by name.
     match super::dag::topo_order(&stages) {
         Ok(order) => {
-            let stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
-            let index = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+            let mut stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
+            let index: HashMap<String, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+            inherit_overrides(&mut stages, &index);
             Ok(Pipeline { path: path.to_path_buf(), root, profile: profile.to_string(), stages, index, kinds })
         }
         Err(cycle) => {
