@@ -225,10 +225,15 @@ fn stale_temp_directories_are_swept() {
     std::fs::create_dir_all(&young).unwrap();
     let two_hours_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(7200);
     std::fs::File::open(&old).unwrap().set_modified(two_hours_ago).unwrap();
+    // The same for a publishing run killed while staging a set.
+    let staging = t.path().join("reports/quick/.sets/.tmp-psd-a-1-2");
+    std::fs::create_dir_all(&staging).unwrap();
+    std::fs::File::open(&staging).unwrap().set_modified(two_hours_ago).unwrap();
     let (code, _, err) = t.cli(&["run", "--stage", "psd-a", "--quiet"]);
     assert_eq!(code, 0, "{err}");
     assert!(!old.exists(), "a stale temp directory was kept");
     assert!(young.exists(), "a temp directory in use may belong to a running process");
+    assert!(!staging.exists(), "a stale staging directory of reports was kept");
 }
 
 /// Finding 6: `--set` split at the first '.', so it could not reach `p-d_min_mm0.9`.

@@ -151,6 +151,23 @@ pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[Stri
     Ok(())
 }
 
+/// Remove staging directories and temp links (`.tmp-*`) older than `age` that killed
+/// runs left in `dir` (= `reports/<profile>`) and its `.sets/`; returns how many.
+pub fn sweep_stale(dir: &Path, age: std::time::Duration) -> usize {
+    let mut n = 0;
+    for d in [dir.to_path_buf(), dir.join(SETS)] {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if !e.file_name().to_string_lossy().starts_with(".tmp-") || !fsio::older_than(&p, age) {
+                continue;
+            }
+            let removed = if e.file_type().is_ok_and(|t| t.is_dir()) { std::fs::remove_dir_all(&p) } else { std::fs::remove_file(&p) };
+            n += usize::from(removed.is_ok());
+        }
+    }
+    n
+}
+
 /// Make `link` a symlink to `target`, atomically replacing whatever `link` was.
 #[cfg(unix)]
 fn replace_symlink(target: &Path, link: &Path) -> io::Result<()> {

@@ -444,6 +444,7 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
 /// (nothing stale stays on show), then rebuild the index from the pipeline's stage list.
 fn publish_all(p: &Pipeline, proj: &Project, summary: &RunSummary, mp: &MultiProgress, quiet: bool) -> Result<(), RunError> {
     let dir = proj.report_dir(&p.profile);
+    publish::sweep_stale(&dir, STALE_TMP_AGE);
     let ids: HashSet<&str> = p.stages.iter().map(|s| s.id.as_str()).collect();
     for gone in publish::drop_removed(&dir, &ids)? {
         if !quiet {
