@@ -200,6 +200,13 @@ mod tests {
     }
 
     #[test]
+    fn every_kind_has_its_roles_declared() {
+        for name in crate::stages::registry().keys() {
+            assert!(roles(name, &serde_json::json!({})).is_some(), "kind `{name}` is missing from check::roles");
+        }
+    }
+
+    #[test]
     fn role_table() {
         let p = serde_json::json!({});
         assert!(check_roles("psd-figure", &p, &[("psd".into(), vec!["x".into()])]).is_empty());
