@@ -76,8 +76,8 @@ pub enum Cmd {
         /// Print the plan only.
         #[arg(long)]
         dry_run: bool,
-        /// Stages run at once.
-        #[arg(long, default_value_t = 1)]
+        /// Stages run at once (at least 1).
+        #[arg(long, default_value_t = 1, value_parser = parse_jobs)]
         jobs: usize,
         /// Override a parameter: STAGE.KEY=VALUE (part of the cache key).
         #[arg(long = "set")]
@@ -144,12 +144,24 @@ pub enum Cmd {
         #[arg(long)]
         steps: Option<u64>,
     },
-    /// Remove the cache (and with --reports, the reports).
+    /// Remove what granrepro made: the cache and state (and with --reports, the files it
+    /// published under reports/). Other files are never touched.
     Clean {
-        /// Also remove reports/.
+        /// Also remove the reports granrepro published (only its own files).
         #[arg(long)]
         reports: bool,
+        /// Only this profile (default: every profile).
+        #[arg(long, value_enum)]
+        profile: Option<ProfileArg>,
     },
+}
+
+fn parse_jobs(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("must be at least 1 (the number of stages run at once)".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("`{s}` is not a whole number >= 1")),
+    }
 }
 
 fn project_of(pipeline: &Path) -> Project {
@@ -247,9 +259,11 @@ pub fn run_cli(cli: Cli) -> i32 {
                             _ => None,
                         })
                         .collect();
-                    // Headline scalars of the targets.
+                    // Headline scalars of the targets that completed in this run (a failed
+                    // stage's previous results are not shown).
                     for s in &summary.stages {
-                        if opts.targets.iter().any(|t| p.members(t).contains(&s.id.as_str())) {
+                        let done = matches!(s.outcome, Outcome::Ran { .. } | Outcome::Cached);
+                        if done && opts.targets.iter().any(|t| p.members(t).contains(&s.id.as_str())) {
                             let path = proj.reports.join(&p.profile).join(format!("{}.json", s.id));
                             if let Ok(v) = std::fs::read(&path).map(|b| serde_json::from_slice::<serde_json::Value>(&b).unwrap_or_default()) {
                                 if let Some(sc) = v["scalars"].as_object() {
@@ -359,21 +373,54 @@ pub fn run_cli(cli: Cli) -> i32 {
         }
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
         Cmd::Bench { engine, steps } => bench(engine, steps),
-        Cmd::Clean { reports } => {
-            let mut code = 0;
-            for dir in [Some(proj.root.join(".granrepro")), reports.then(|| proj.reports.clone())].into_iter().flatten() {
-                if dir.exists() {
-                    if let Err(e) = std::fs::remove_dir_all(&dir) {
-                        eprintln!("error: cannot remove {}: {e}", dir.display());
-                        code = 1;
-                    } else {
-                        println!("removed {}", dir.display());
-                    }
-                }
-            }
-            code
+        Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
+    }
+}
+
+/// `clean`: only in the project of an existing pipeline file; only what granrepro made.
+fn clean(pipeline: &Path, proj: &Project, reports: bool, profile: Option<&str>) -> i32 {
+    if !pipeline.is_file() {
+        eprintln!(
+            "error: {}: no such pipeline file; nothing removed\n  help: `clean` works in the project of an existing pipeline file: pass --pipeline PATH or run from its directory",
+            pipeline.display()
+        );
+        return 2;
+    }
+    let profiles: Vec<&str> = match profile {
+        Some(p) => vec![p],
+        None => crate::pipeline::spec::PROFILES.to_vec(),
+    };
+    let mut code = 0;
+    match crate::pipeline::run::clean_state(proj, profile) {
+        Ok(msgs) => msgs.iter().for_each(|m| println!("{m}")),
+        Err(e) => {
+            eprintln!("error: {e}");
+            code = 1;
         }
     }
+    if reports {
+        for p in &profiles {
+            let dir = proj.report_dir(p);
+            match crate::pipeline::publish::clean_reports(&dir) {
+                Ok(r) if r.is_empty() => {}
+                Ok(r) => println!("removed {} published file(s) of profile `{p}` in {}", r.len(), dir.display()),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    code = 1;
+                }
+            }
+            if let Ok(rd) = std::fs::read_dir(&dir) {
+                let left: Vec<String> = rd.flatten().map(|e| e.file_name().to_string_lossy().to_string()).collect();
+                if !left.is_empty() {
+                    println!("kept {} file(s) in {} that granrepro did not publish: {}", left.len(), dir.display(), left.join(", "));
+                }
+            }
+        }
+        if profile.is_none() && std::fs::read_dir(&proj.reports).is_ok_and(|mut r| r.next().is_none()) && std::fs::remove_dir(&proj.reports).is_ok() {
+            println!("removed the empty {}", proj.reports.display());
+        }
+    }
+    code
 }
 
 fn bench(engine: BenchEngine, steps: Option<u64>) -> i32 {

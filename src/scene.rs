@@ -3,12 +3,16 @@
 //! column preparation, collapse run control); it is validated with file, line and key,
 //! then run as a three-stage pipeline (psd → dem-column-prep → dem-collapse) whose cache
 //! and reports live under DIR — so the outputs are the same tables, figures and VTK files.
+//! Problems are reported against the scene file's keys and lines; nothing is written
+//! until the scene is valid, and DIR must be new, empty, or an earlier simulate output
+//! (marked by a `.granrepro-simulate` file).
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::pipeline::{Project, RunOptions, load};
+use crate::pipeline::spec::load_text;
+use crate::pipeline::{Project, RunOptions};
 
 /// The scene file.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -42,27 +46,85 @@ fn nonnull(v: &serde_yaml::Value) -> serde_yaml::Value {
     if v.is_null() { serde_yaml::Value::Mapping(Default::default()) } else { v.clone() }
 }
 
-/// Run a scene; returns the process exit code (0 ok, 1 failed, 2 bad input).
-pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
-    let text = match std::fs::read_to_string(scene) {
-        Ok(t) => t,
-        Err(e) => {
-            eprintln!("error: {}: cannot read the scene file: {e}", scene.display());
-            return 2;
-        }
-    };
-    let sf: SceneFile = match serde_yaml::from_str(&text) {
-        Ok(s) => s,
-        Err(e) => {
-            let line = e.location().map(|l| format!(":{}", l.line())).unwrap_or_default();
-            eprintln!("error: {}{line}: {e}\n  help: scene keys: psd, dem, stiffness_factor, column, run, vtk", scene.display());
-            return 2;
-        }
-    };
-    if let Err(e) = std::fs::create_dir_all(out) {
-        eprintln!("error: cannot create {}: {e}", out.display());
-        return 2;
+/// Marker file in a directory `simulate` made: `--out` may reuse it.
+pub const OUT_MARK: &str = ".granrepro-simulate";
+
+/// Is `out` usable: missing, empty, or one of simulate's own output directories?
+fn check_out(out: &Path) -> Result<(), String> {
+    if !out.exists() {
+        return Ok(());
     }
+    if !out.is_dir() {
+        return Err(format!("{}: --out must be a directory; it is a file", out.display()));
+    }
+    let mut entries = std::fs::read_dir(out).map_err(|e| format!("cannot read {}: {e}", out.display()))?;
+    if entries.next().is_none() || out.join(OUT_MARK).is_file() {
+        return Ok(());
+    }
+    Err(format!(
+        "{}: --out is a non-empty directory that `granrepro simulate` did not make; nothing written\n  help: pass a new or empty directory (simulate writes pipeline.yaml, .granrepro/ and reports/ there)",
+        out.display()
+    ))
+}
+
+/// The scene key of a generated stage's parameter (`stages[column].params.dem.kn` →
+/// `dem.kn`), so problems point at the scene file.
+fn scene_key(diag_key: &str) -> String {
+    let Some(rest) = diag_key.strip_prefix("stages[") else { return diag_key.to_string() };
+    let Some((stage, rest)) = rest.split_once(']') else { return diag_key.to_string() };
+    let param = rest.strip_prefix(".params.").unwrap_or(rest.trim_start_matches('.'));
+    let top = param.split('.').next().unwrap_or("");
+    match (stage, top) {
+        (_, "dem" | "stiffness_factor" | "vtk") => param.to_string(),
+        ("psd", _) => format!("psd.{param}"),
+        ("column", _) => format!("column.{param}"),
+        ("collapse", "run") => param.to_string(),
+        _ => format!("{stage}.{param}"),
+    }
+}
+
+/// Print the pipeline's problems as problems of the scene file (its keys and lines).
+fn report_scene_problems(scene: &Path, text: &str, d: &crate::pipeline::Diagnostics) {
+    let mut seen = std::collections::HashSet::new();
+    for x in &d.0 {
+        let key = scene_key(&x.key);
+        if !seen.insert((key.clone(), x.message.clone())) {
+            continue;
+        }
+        let parts: Vec<&str> = key.split('.').collect();
+        let line = crate::pipeline::diag::locate(text, &parts, 1).map(|l| format!(":{l}")).unwrap_or_default();
+        eprintln!("error: {}{line}: {key}: {}", scene.display(), x.message);
+        if !x.help.is_empty() {
+            eprintln!("  help: {}", x.help);
+        }
+    }
+    eprintln!("{} error(s); nothing was run or written", seen.len());
+}
+
+/// Parse the scene file, naming the file, line and key of a problem.
+fn parse_scene(scene: &Path, text: &str) -> Result<SceneFile, String> {
+    const KEYS: &str = "scene keys: psd, dem, stiffness_factor, column, run, vtk";
+    let v: serde_yaml::Value = serde_yaml::from_str(text).map_err(|e| {
+        let line = e.location().map(|l| format!(":{}", l.line())).unwrap_or_default();
+        format!("{}{line}: YAML syntax error: {e}\n  help: {KEYS}", scene.display())
+    })?;
+    if let Some((key, value, allowed)) = crate::pipeline::check::bad_numbers(&v).into_iter().next() {
+        let line = crate::pipeline::diag::locate(text, &key.split('.').collect::<Vec<_>>(), 1).map(|l| format!(":{l}")).unwrap_or_default();
+        return Err(format!("{}{line}: {key}: value {value} is not allowed\n  help: {allowed}", scene.display()));
+    }
+    serde_path_to_error::deserialize::<_, SceneFile>(v).map_err(|e| {
+        let inner = e.inner().to_string();
+        let key = match inner.split('`').nth(1) {
+            Some(f) if inner.starts_with("unknown field") => f.to_string(),
+            _ => e.path().to_string(),
+        };
+        let line = crate::pipeline::diag::locate(text, &key.split('.').collect::<Vec<_>>(), 1).map(|l| format!(":{l}")).unwrap_or_default();
+        format!("{}{line}: {key}: {inner}\n  help: {KEYS}", scene.display())
+    })
+}
+
+/// The generated three-stage pipeline of a scene.
+fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
     let mut prep = nonnull(&sf.column);
     let mut coll = serde_yaml::Mapping::new();
     if let serde_yaml::Value::Mapping(m) = &mut prep {
@@ -94,18 +156,46 @@ pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
     doc.insert("version".into(), 1.into());
     doc.insert("description".into(), format!("generated from {} by granrepro simulate", scene.display()).into());
     doc.insert("stages".into(), serde_yaml::Value::Sequence(stages));
-    let pfile = out.join("pipeline.yaml");
-    if let Err(e) = std::fs::write(&pfile, serde_yaml::to_string(&serde_yaml::Value::Mapping(doc)).unwrap_or_default()) {
-        eprintln!("error: cannot write {}: {e}", pfile.display());
-        return 2;
-    }
-    let p = match load(&pfile, "quick", &[]) {
-        Ok(p) => p,
-        Err(d) => {
-            eprintln!("{d}\n  note: stage `psd` ← scene key `psd`, `column` ← `column` + `dem`, `collapse` ← `run` + `dem` (in {})", scene.display());
+    serde_yaml::Value::Mapping(doc)
+}
+
+/// Run a scene; returns the process exit code (0 ok, 1 failed, 2 bad input). Nothing is
+/// written before the scene is valid and `out` is usable.
+pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
+    let text = match std::fs::read_to_string(scene) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {}: cannot read the scene file: {e}", scene.display());
             return 2;
         }
     };
+    let sf = match parse_scene(scene, &text) {
+        Ok(s) => s,
+        Err(m) => {
+            eprintln!("error: {m}");
+            return 2;
+        }
+    };
+    let doc = serde_yaml::to_string(&scene_pipeline(scene, &sf)).unwrap_or_default();
+    let pfile = out.join("pipeline.yaml");
+    let p = match load_text(&pfile, &doc, out, "quick", &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            report_scene_problems(scene, &text, &d);
+            return 2;
+        }
+    };
+    if let Err(m) = check_out(out) {
+        eprintln!("error: {m}");
+        return 2;
+    }
+    let written = crate::pipeline::fsio::create_dir_all(out)
+        .and_then(|()| crate::pipeline::fsio::write_atomic(&out.join(OUT_MARK), b"made by granrepro simulate\n"))
+        .and_then(|()| crate::pipeline::fsio::write_atomic(&pfile, doc.as_bytes()));
+    if let Err(e) = written {
+        eprintln!("error: {e}");
+        return 1;
+    }
     match crate::pipeline::run::run(&p, &Project::new(out), &RunOptions { jobs: 1, quiet, ..Default::default() }) {
         Ok(s) if !s.failed() => {
             println!("outputs in {}", out.join("reports").join("quick").display());

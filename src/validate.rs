@@ -34,25 +34,42 @@ impl Checker {
         let key = self.key(key);
         self.issues.push(Issue { key, value: value.to_string(), allowed: allowed.to_string() });
     }
+    /// `v` must be a finite number (not NaN or ±inf); records an issue and returns false
+    /// otherwise.
+    pub fn finite(&mut self, key: &str, v: f64) -> bool {
+        if !v.is_finite() {
+            self.fail(key, v, "must be a finite number (not NaN or infinity)");
+        }
+        v.is_finite()
+    }
     /// `v` must be finite and > 0.
     pub fn positive(&mut self, key: &str, v: f64) {
-        if !(v.is_finite() && v > 0.0) { self.fail(key, v, "a finite number > 0"); }
+        if self.finite(key, v) && v <= 0.0 { self.fail(key, v, "a finite number > 0"); }
     }
     /// `v` must be finite and ≥ 0.
     pub fn non_negative(&mut self, key: &str, v: f64) {
-        if !(v.is_finite() && v >= 0.0) { self.fail(key, v, "a finite number >= 0"); }
+        if self.finite(key, v) && v < 0.0 { self.fail(key, v, "a finite number >= 0"); }
     }
     /// `v` must lie in the closed interval [lo, hi].
     pub fn in_closed(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
-        if !(v.is_finite() && v >= lo && v <= hi) { self.fail(key, v, &format!("in [{lo}, {hi}]")); }
+        if self.finite(key, v) && !(v >= lo && v <= hi) { self.fail(key, v, &format!("in [{lo}, {hi}]")); }
     }
     /// `v` must lie in the half-open interval (lo, hi].
     pub fn in_open_closed(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
-        if !(v.is_finite() && v > lo && v <= hi) { self.fail(key, v, &format!("in ({lo}, {hi}]")); }
+        if self.finite(key, v) && !(v > lo && v <= hi) { self.fail(key, v, &format!("in ({lo}, {hi}]")); }
     }
     /// `v` must lie in the open interval (lo, hi).
     pub fn in_open(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
-        if !(v.is_finite() && v > lo && v < hi) { self.fail(key, v, &format!("in ({lo}, {hi})")); }
+        if self.finite(key, v) && !(v > lo && v < hi) { self.fail(key, v, &format!("in ({lo}, {hi})")); }
+    }
+    /// A physical quantity: finite and within the plausible range [lo, hi] of `what`
+    /// (with its unit), e.g. `plausible("density", rho, 100.0, 2.5e4, "density [kg/m³]")`.
+    /// The range is wide (orders of magnitude) — it catches typos and overflow, not
+    /// unusual materials.
+    pub fn plausible(&mut self, key: &str, v: f64, lo: f64, hi: f64, what: &str) {
+        if self.finite(key, v) && !(v >= lo && v <= hi) {
+            self.fail(key, v, &format!("a physically plausible {what} in [{lo:e}, {hi:e}]"));
+        }
     }
     /// Generic condition with a custom message.
     pub fn check(&mut self, ok: bool, key: &str, value: impl std::fmt::Display, allowed: &str) {
@@ -60,4 +77,22 @@ impl Checker {
     }
     /// Merge the issues of a nested checker.
     pub fn extend(&mut self, other: Checker) { self.issues.extend(other.issues); }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_is_named_as_such() {
+        let mut c = Checker::new("dem");
+        c.positive("kn", f64::NAN);
+        c.in_closed("mu", f64::INFINITY, 0.0, 1.0);
+        c.plausible("density", 1e308, 100.0, 2.5e4, "density [kg/m³]");
+        c.plausible("density", 2500.0, 100.0, 2.5e4, "density [kg/m³]");
+        assert_eq!(c.issues.len(), 3);
+        assert!(c.issues[0].allowed.contains("finite") && c.issues[0].key == "dem.kn");
+        assert!(c.issues[1].allowed.contains("finite"));
+        assert!(c.issues[2].allowed.contains("plausible density"));
+    }
 }

@@ -1,9 +1,12 @@
 //! The declarative pipeline: load and validate `pipeline.yaml`, plan the stages a target
 //! needs, run them through the content-addressed cache, publish reports.
 pub mod cache;
+pub mod check;
 pub mod context;
 pub mod dag;
 pub mod diag;
+pub mod fsio;
+pub mod publish;
 pub mod run;
 pub mod spec;
 

@@ -11,9 +11,10 @@ use std::time::Instant;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
 
-use super::cache::{Cache, KeyRecord, Lookup, write_atomic};
+use super::cache::{Cache, KeyRecord, Lookup, STALE_TMP_AGE, write_atomic};
 use super::context::{InputRef, Output, StageCtx};
 use super::dag::closure;
+use super::publish;
 use super::spec::{Pipeline, Stage};
 
 /// Where a project keeps its cache, state and reports.
@@ -41,6 +42,10 @@ impl Project {
     }
     fn state_file(&self, profile: &str, id: &str) -> PathBuf {
         self.state.join(profile).join(format!("{id}.json"))
+    }
+    /// `reports/<profile>/`.
+    pub fn report_dir(&self, profile: &str) -> PathBuf {
+        self.reports.join(profile)
     }
 }
 
@@ -214,7 +219,10 @@ pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
         .map(|s| {
             let (rec, key) = &keys[&s.id];
             let f = if proj.cache.verify(&proj.cache.entry_dir(key), key).is_ok() {
-                Freshness::Fresh
+                match published_elsewhere(proj, &p.profile, &s.id, key) {
+                    Some(why) => Freshness::Stale(vec![why]),
+                    None => Freshness::Fresh,
+                }
             } else {
                 match std::fs::read(proj.state_file(&p.profile, &s.id)).ok().and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok()) {
                     Some(old) => Freshness::Stale(stale_reasons(&old, rec)),
@@ -224,6 +232,58 @@ pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
             (s.id.clone(), f)
         })
         .collect()
+}
+
+/// `clean` of the cache and state: the entries and state of `profile` (all when `None`).
+/// Returns one line per thing removed.
+pub fn clean_state(proj: &Project, profile: Option<&str>) -> std::io::Result<Vec<String>> {
+    let mut msgs = Vec::new();
+    let n = proj.cache.clean(profile)?;
+    if n > 0 {
+        msgs.push(format!("removed {n} cache entr{} {}from {}", if n == 1 { "y" } else { "ies" }, profile.map(|p| format!("of profile `{p}` ")).unwrap_or_default(), proj.cache.root().display()));
+    }
+    let profiles: Vec<&str> = match profile {
+        Some(p) => vec![p],
+        None => super::spec::PROFILES.to_vec(),
+    };
+    for p in profiles {
+        let dir = proj.state.join(p);
+        let Ok(rd) = std::fs::read_dir(&dir) else { continue };
+        let mut k = 0;
+        for e in rd.flatten() {
+            if e.file_name().to_string_lossy().ends_with(".json") {
+                std::fs::remove_file(e.path()).map_err(super::fsio::err_at("cannot remove", &e.path()))?;
+                k += 1;
+            }
+        }
+        let _ = std::fs::remove_dir(&dir);
+        if k > 0 {
+            msgs.push(format!("removed the state of {k} stage(s) of profile `{p}` from {}", dir.display()));
+        }
+    }
+    for d in [proj.state.clone(), proj.root.join(".granrepro")] {
+        let _ = std::fs::remove_dir(&d); // only when empty
+    }
+    if msgs.is_empty() {
+        msgs.push("nothing to remove".into());
+    }
+    Ok(msgs)
+}
+
+/// When `reports/` holds another run of a stage than the cache entry `key` (e.g. one
+/// made with `--set`), say so: the reports are not what the pipeline now gives.
+fn published_elsewhere(proj: &Project, profile: &str, id: &str, key: &str) -> Option<String> {
+    let rec: Value = serde_json::from_slice(&std::fs::read(proj.report_dir(profile).join(format!("{id}.record.json"))).ok()?).ok()?;
+    let published = rec.get("key").and_then(|k| k.as_str())?;
+    if published == key {
+        return None;
+    }
+    let over = rec.get("overrides").and_then(|o| o.as_array()).map(|a| a.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", ")).unwrap_or_default();
+    Some(if over.is_empty() {
+        "cached, but reports/ hold another run; `granrepro run` publishes this one".to_string()
+    } else {
+        format!("cached, but reports/ hold a run with --set {over}; `granrepro run` publishes the pipeline's values")
+    })
 }
 
 /// Plan and run.
@@ -290,8 +350,9 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
         return Ok(summary);
     }
 
+    proj.cache.sweep_stale(STALE_TMP_AGE);
     let mp = MultiProgress::with_draw_target(if opts.quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
-    let jobs = opts.jobs.max(1);
+    let jobs = opts.jobs.max(1); // the CLI refuses 0
     let in_set: HashSet<&String> = set.iter().collect();
     let mut done: HashMap<String, bool> = HashMap::new(); // id -> ok
     let mut running: HashSet<String> = HashSet::new();
@@ -374,16 +435,41 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
             }
         }
     });
-    // Publish every stage that has a valid entry.
-    for r in &summary.stages {
-        if matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. }) {
-            publish(proj, &p.profile, &r.id, &proj.cache.entry_dir(&r.key))?;
+    publish_all(p, proj, &summary, &mp, opts.quiet)?;
+    Ok(summary)
+}
+
+/// Withdraw the outputs of stages no longer in the pipeline, publish every stage with a
+/// valid entry (each as one set), withdraw the outputs of failed or skipped stages
+/// (nothing stale stays on show), then rebuild the index from the pipeline's stage list.
+fn publish_all(p: &Pipeline, proj: &Project, summary: &RunSummary, mp: &MultiProgress, quiet: bool) -> Result<(), RunError> {
+    let dir = proj.report_dir(&p.profile);
+    publish::sweep_stale(&dir, STALE_TMP_AGE);
+    let ids: HashSet<&str> = p.stages.iter().map(|s| s.id.as_str()).collect();
+    for gone in publish::drop_removed(&dir, &ids)? {
+        if !quiet {
+            say(mp, format!("  removed the reports of `{gone}` (no longer in {})", p.path.display()));
         }
     }
-    if summary.stages.iter().any(|s| matches!(s.outcome, Outcome::Cached | Outcome::Ran { .. })) {
-        crate::report::html::write_index(&proj.reports.join(&p.profile), &p.profile)?;
+    for r in &summary.stages {
+        match r.outcome {
+            Outcome::Cached | Outcome::Ran { .. } => {
+                let overrides = p.get(&r.id).map(|s| s.overrides.as_slice()).unwrap_or(&[]);
+                publish::publish(&proj.cache, &dir, &r.id, &r.key, overrides)?;
+            }
+            Outcome::Failed(_) | Outcome::Skipped(_) => {
+                if !publish::unpublish(&dir, &r.id)?.is_empty() {
+                    say(mp, format!("  withdrew the previous reports of `{}` (it did not complete; its old results stay in the cache)", r.id));
+                }
+            }
+            Outcome::WouldRun(_) => {}
+        }
     }
-    Ok(summary)
+    if dir.is_dir() {
+        let all: Vec<String> = p.stages.iter().map(|s| s.id.clone()).collect();
+        crate::report::html::write_index_of(&dir, &p.profile, &all)?;
+    }
+    Ok(())
 }
 
 /// Print a line above the progress bars, or plainly to stderr when they are hidden.
@@ -450,33 +536,4 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
     proj.cache.store(key, &st.id, &p.profile, &mut out, &record).map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
     write_state(proj, &p.profile, &st.id, rec);
     Ok(wall_s)
-}
-
-/// Copy an entry's artifacts to `reports/<profile>/` under the stage's name:
-/// `table.*` → `ID.*`, `figure.svg` → `ID.svg`, `result.json` → `ID.json`,
-/// `record.json` → `ID.record.json`, anything else `NAME` → `ID-NAME`.
-pub fn publish(proj: &Project, profile: &str, id: &str, entry: &Path) -> std::io::Result<()> {
-    let out = proj.reports.join(profile);
-    std::fs::create_dir_all(&out)?;
-    for e in std::fs::read_dir(entry)? {
-        let e = e?;
-        let name = e.file_name().to_string_lossy().to_string();
-        let dest = match name.as_str() {
-            "manifest.json" => continue,
-            "result.json" => {
-                // The entry may be shared by stages doing the same work: stamp our id.
-                let mut v: Value = serde_json::from_slice(&std::fs::read(e.path())?).map_err(std::io::Error::other)?;
-                v["stage"] = Value::String(id.to_string());
-                write_atomic(&out.join(format!("{id}.json")), &serde_json::to_vec_pretty(&v).map_err(std::io::Error::other)?)?;
-                continue;
-            }
-            "record.json" => format!("{id}.record.json"),
-            "table.parquet" => format!("{id}.parquet"),
-            "table.csv" => format!("{id}.csv"),
-            "figure.svg" => format!("{id}.svg"),
-            other => format!("{id}-{other}"),
-        };
-        write_atomic(&out.join(dest), &std::fs::read(e.path())?)?;
-    }
-    Ok(())
 }

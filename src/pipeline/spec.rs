@@ -13,7 +13,8 @@ use serde::Deserialize;
 use serde_json::Value as Json;
 use serde_yaml::{Mapping, Value as Yaml};
 
-use super::diag::{Diagnostics, locate, locate_stage};
+use super::check;
+use super::diag::{Diagnostic, Diagnostics, locate, locate_stage};
 use crate::stages::{Kind, registry};
 
 /// Allowed profile names.
@@ -67,7 +68,8 @@ enum InputsSpec {
 /// One `--set STAGE.KEY=VALUE` override.
 #[derive(Debug, Clone)]
 pub struct Override {
-    /// Stage id (a matrix base id applies to every member).
+    /// Stage id (a matrix base id applies to every member). Ids may contain dots
+    /// (`col-dem-prep-a0.4`): [`load`] re-splits `STAGE.KEY` at the longest known id.
     pub stage: String,
     /// Dotted key inside params.
     pub key: String,
@@ -76,12 +78,25 @@ pub struct Override {
 }
 
 impl Override {
-    /// Parse `STAGE.KEY=VALUE`.
+    /// Parse `STAGE.KEY=VALUE` (split at the first '.' until the pipeline's ids are known).
     pub fn parse(s: &str) -> Result<Override, String> {
         let (lhs, rhs) = s.split_once('=').ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE"))?;
         let (stage, key) = lhs.split_once('.').ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE (no '.' between stage and key)"))?;
         let value: Yaml = serde_yaml::from_str(rhs).map_err(|e| format!("--set {s}: value is not valid YAML: {e}"))?;
         Ok(Override { stage: stage.to_string(), key: key.to_string(), value })
+    }
+    /// Re-split `STAGE.KEY` so STAGE is the longest of `ids` that fits.
+    fn resolve(&self, ids: &std::collections::HashSet<String>) -> Override {
+        let lhs = format!("{}.{}", self.stage, self.key);
+        let best = ids.iter().filter(|id| lhs.len() > id.len() + 1 && lhs.starts_with(id.as_str()) && lhs.as_bytes()[id.len()] == b'.').max_by_key(|id| id.len());
+        match best {
+            Some(id) => Override { stage: id.clone(), key: lhs[id.len() + 1..].to_string(), value: self.value.clone() },
+            None => self.clone(),
+        }
+    }
+    /// `key=value`, as marked on published outputs.
+    pub fn show(&self) -> String {
+        format!("{}.{}={}", self.stage, self.key, yaml_scalar_string(&self.value))
     }
 }
 
@@ -104,6 +119,9 @@ pub struct Stage {
     pub inputs: Vec<(String, Vec<String>)>,
     /// Line of the entry in pipeline.yaml.
     pub line: Option<usize>,
+    /// `--set` overrides applied to this stage or to any stage upstream of it
+    /// (`STAGE.KEY=VALUE`).
+    pub overrides: Vec<String>,
 }
 
 /// A validated pipeline for one profile.
@@ -242,7 +260,63 @@ pub fn canonical(v: Json) -> Json {
     }
 }
 
-/// Load and validate a pipeline for a profile, applying `--set` overrides.
+/// One layer of a stage's params, for attributing a problem: (file, its text, key
+/// prefix inside the file, line anchor, the layer's mapping).
+type LayerRef = (PathBuf, Option<String>, Vec<String>, usize, Yaml);
+
+/// The file and line of the last layer that sets the dotted `key` (the stage entry
+/// when no layer does).
+fn attribute(layers: &[LayerRef], key: &str, path: &Path, line: Option<usize>) -> (PathBuf, Option<usize>) {
+    let parts: Vec<&str> = key.split(['.', '[']).filter(|s| !s.is_empty() && !s.ends_with(']')).collect();
+    for (f, t, prefix, anchor, v) in layers.iter().rev() {
+        if parts.is_empty() || has_path(v, &parts) {
+            let l = t.as_deref().and_then(|t| {
+                let rel: Vec<&str> = parts.iter().skip(prefix.len()).cloned().collect();
+                if rel.is_empty() { Some(*anchor) } else { locate(t, &rel, *anchor) }
+            });
+            return (f.clone(), l);
+        }
+    }
+    (path.to_path_buf(), line)
+}
+
+/// A stage computed from an overridden input is overridden too: give each stage (in
+/// topological order) the `--set` overrides of everything upstream.
+fn inherit_overrides(stages: &mut [Stage], index: &HashMap<String, usize>) {
+    for i in 0..stages.len() {
+        let mut all = stages[i].overrides.clone();
+        for id in stages[i].inputs.iter().flat_map(|(_, ids)| ids.iter()) {
+            for o in index.get(id).map(|&j| stages[j].overrides.clone()).unwrap_or_default() {
+                if !all.contains(&o) {
+                    all.push(o);
+                }
+            }
+        }
+        stages[i].overrides = all;
+    }
+}
+
+/// Every id the raw stage entries define (base ids and matrix member ids), for
+/// resolving `--set STAGE.KEY` when ids contain dots.
+fn known_ids(raw: &[Yaml]) -> std::collections::HashSet<String> {
+    let mut out = std::collections::HashSet::new();
+    for e in raw {
+        let Some(id) = e.get("id").and_then(|v| v.as_str()) else { continue };
+        out.insert(id.to_string());
+        if let Some(Yaml::Mapping(m)) = e.get("matrix") {
+            for (k, vals) in m {
+                for v in vals.as_sequence().into_iter().flatten() {
+                    out.insert(format!("{id}-{}{}", yaml_scalar_string(k), yaml_scalar_string(v)));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Load and validate a pipeline for a profile, applying `--set` overrides. Every
+/// profile is validated (a bad value in the `paper` layer is an error of a `quick` run
+/// too), and the same problem is reported once.
 pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
     let mut diags = Diagnostics::default();
     let root = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
@@ -254,10 +328,41 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) => {
-            diags.push(path, None, "", format!("cannot read the pipeline file: {e}"), "pass --pipeline PATH, or run from the directory holding pipeline.yaml");
+            diags.push(path, None, "", format!("cannot read the pipeline file {}: {e}", path.display()), "pass --pipeline PATH, or run from the directory holding pipeline.yaml");
             return Err(diags);
         }
     };
+    load_text(path, &text, &root, profile, sets)
+}
+
+/// [`load`] from a pipeline text already read (`path` names it in messages; stage files
+/// are relative to `root`).
+pub fn load_text(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
+    let main = load_profile(path, text, root, profile, sets);
+    let mut all: Vec<Diagnostic> = match &main {
+        Ok(_) => vec![],
+        Err(d) => d.0.clone(),
+    };
+    for other in PROFILES.iter().filter(|p| **p != profile) {
+        if let Err(d) = load_profile(path, text, root, other, sets) {
+            for mut x in d.0 {
+                if !all.contains(&x) {
+                    x.message = format!("{} (profile `{other}`)", x.message);
+                    all.push(x);
+                }
+            }
+        }
+    }
+    match main {
+        Ok(p) if all.is_empty() => Ok(p),
+        _ => Err(check::dedupe(Diagnostics(all))),
+    }
+}
+
+fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
+    let mut diags = Diagnostics::default();
+    let root = root.to_path_buf();
+    let text = text.to_string();
     let file: PipelineFile = match serde_yaml::from_str::<Yaml>(&text) {
         Err(e) => {
             let line = e.location().map(|l| l.line());
@@ -286,6 +391,9 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
     let mut pending_inputs: Vec<(usize, Option<InputsSpec>, Option<(String, String)>, Option<usize>)> = Vec::new();
     // Stages that exist but were rejected: their dependants are not told "no such stage".
     let mut rejected: std::collections::HashSet<String> = std::collections::HashSet::new();
+    let known = known_ids(&file.stages);
+    let sets: Vec<Override> = sets.iter().map(|s| s.resolve(&known)).collect();
+    let sets = sets.as_slice();
 
     for (si, raw) in file.stages.iter().enumerate() {
         let raw_id = raw.get("id").and_then(|v| v.as_str()).map(str::to_string);
@@ -303,14 +411,22 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                     (e.path().to_string(), line)
                 };
                 diags.push(path, l, format!("stages[{label}].{key}"), inner, "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix");
+                rejected.extend(raw_id);
                 continue;
             }
         };
+        if let Err(why) = check::check_id(&entry.id) {
+            let l = line.or_else(|| locate(&text, &["id"], 1));
+            diags.push(path, l, format!("stages[#{si}].id"), why, check::ID_HELP);
+            rejected.insert(entry.id.clone());
+            continue;
+        }
         let kind = match kinds.get(entry.kind.as_str()) {
             Some(k) => *k,
             None => {
                 let l = line.and_then(|ln| locate(&text, &["kind"], ln));
                 diags.push(path, l, format!("stages[{}].kind", entry.id), format!("unknown stage kind `{}`", entry.kind), format!("known kinds: {}", kinds.keys().cloned().collect::<Vec<_>>().join(", ")));
+                rejected.insert(entry.id.clone());
                 continue;
             }
         };
@@ -394,6 +510,7 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
             }
         }
         if !file_ok {
+            rejected.insert(entry.id.clone());
             continue;
         }
         if let Some(p) = &entry.params {
@@ -409,9 +526,22 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
             None => vec![(entry.id.clone(), None)],
             Some(m) if m.len() == 1 => {
                 let (k, vals) = m.iter().next().unwrap();
+                let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
                 if vals.is_empty() {
-                    let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
                     diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), "empty value list", "give at least one value");
+                    rejected.insert(entry.id.clone());
+                    continue;
+                }
+                if let Some(bad) = vals.iter().find(|v| !matches!(v, Yaml::Number(_) | Yaml::String(_) | Yaml::Bool(_))) {
+                    let shown = serde_json::to_string(&serde_yaml::to_string(bad).unwrap_or_default().trim()).unwrap_or_default();
+                    diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), format!("matrix value {shown} is not a number, string or boolean"), "matrix values name the members (`<id>-<key><value>`): use scalars");
+                    rejected.insert(entry.id.clone());
+                    continue;
+                }
+                let bad_ids: Vec<String> = vals.iter().filter_map(|v| check::check_id(&format!("{}-{}{}", entry.id, k, yaml_scalar_string(v))).err()).collect();
+                if !bad_ids.is_empty() {
+                    diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), format!("matrix member id: {}", bad_ids.join("; ")), check::ID_HELP);
+                    rejected.insert(entry.id.clone());
                     continue;
                 }
                 base_matrix.insert(entry.id.clone(), (k.clone(), vals.iter().map(yaml_scalar_string).collect()));
@@ -423,6 +553,7 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
             Some(_) => {
                 let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
                 diags.push(path, l, format!("stages[{}].matrix", entry.id), "a matrix takes exactly one key", "sweep one parameter per stage; chain stages for more");
+                rejected.insert(entry.id.clone());
                 continue;
             }
         };
@@ -440,11 +571,25 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                 let anchor = line.and_then(|ln| locate(&text, &["matrix"], ln)).unwrap_or(1);
                 mlayers.push((path.to_path_buf(), Some(text.clone()), vec![], anchor, m));
             }
+            let mut overrides = Vec::new();
             for s in sets.iter().filter(|s| s.stage == mid || s.stage == entry.id) {
+                overrides.push(s.show());
                 set_path(&mut merged, &s.key, s.value.clone());
                 let mut m = Yaml::Mapping(Mapping::new());
                 set_path(&mut m, &s.key, s.value.clone());
                 mlayers.push((PathBuf::from("<command line>"), None, vec![], 0, m));
+            }
+            // NaN, inf and absurd magnitudes first: they are the root cause of whatever
+            // the kind's schema would say next ("invalid type: null", a step limit of 0).
+            let bad = check::bad_numbers(&merged);
+            if !bad.is_empty() {
+                for (key, value, allowed) in bad {
+                    let (file, l) = attribute(&mlayers, &key, path, line);
+                    diags.push(&file, l, format!("stages[{mid}].params.{key}"), format!("value {value} is not allowed"), allowed);
+                }
+                rejected.insert(mid.clone());
+                rejected.insert(entry.id.clone());
+                continue;
             }
             let json = match to_json(&merged) {
                 Ok(j) => j,
@@ -471,20 +616,7 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                 Ok(p) => canonical(p),
                 Err(problems) => {
                     for pr in problems {
-                        // Attribute the problem to the last layer that sets the key.
-                        let parts: Vec<&str> = pr.key.split('.').filter(|s| !s.is_empty()).collect();
-                        let mut file = path.to_path_buf();
-                        let mut l = line;
-                        for (f, t, prefix, anchor, v) in mlayers.iter().rev() {
-                            if parts.is_empty() || has_path(v, &parts) {
-                                file = f.clone();
-                                l = t.as_deref().and_then(|t| {
-                                    let rel: Vec<&str> = parts.iter().skip(prefix.len()).cloned().collect();
-                                    if rel.is_empty() { Some(*anchor) } else { locate(t, &rel, *anchor) }
-                                });
-                                break;
-                            }
-                        }
+                        let (file, l) = attribute(&mlayers, &pr.key, path, line);
                         let help = if pr.allowed.is_empty() { format!("see the `{}` kind's parameters in docs/pipeline.md", kind.name) } else { pr.allowed.clone() };
                         diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), pr.message, help);
                     }
@@ -503,6 +635,7 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                 params,
                 inputs: vec![],
                 line,
+                overrides,
             });
             pending_inputs.push((idx, None, mval.as_ref().map(|(k, vs, _)| (k.clone(), vs.clone())), line));
         }
@@ -519,6 +652,14 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
             });
         }
     }
+    // A matrix member may not take the id of another stage.
+    let mut seen_ids: HashMap<&str, &Stage> = HashMap::new();
+    for st in &stages {
+        if let Some(prev) = seen_ids.insert(st.id.as_str(), st) {
+            let other = if prev.base_id != prev.id { format!("a member of `{}`", prev.base_id) } else { "a stage".into() };
+            diags.push(path, st.line, format!("stages[{}].id", st.id), format!("duplicate stage id `{}` (also {other})", st.id), "rename the stage or change the matrix values");
+        }
+    }
     // Unknown stages named by --set.
     for s in sets {
         if !stages.iter().any(|st| st.id == s.stage || st.base_id == s.stage) && !seen_base.contains_key(&s.stage) {
@@ -527,13 +668,18 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
     }
     // Resolve inputs.
     let ids: HashMap<String, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+    let mut declared_inputs: std::collections::HashSet<usize> = std::collections::HashSet::new();
     for (idx, spec, mval, line) in pending_inputs {
         let Some(spec) = spec else { continue };
+        declared_inputs.insert(idx);
         let pairs: Vec<(String, Vec<String>)> = match spec {
             InputsSpec::List(v) => v.into_iter().map(|id| (id.clone(), vec![id])).collect(),
             InputsSpec::Map(m) => m.into_iter().map(|(k, v)| (k, match v { OneOrMany::One(s) => vec![s], OneOrMany::Many(v) => v })).collect(),
         };
         let mut resolved = Vec::new();
+        // Reads a stage rejected above: its problems are reported there, not again here.
+        let mut tainted = false;
+        let n_diags = diags.0.len();
         for (role, refs) in pairs {
             let mut out = Vec::new();
             for r in refs {
@@ -542,6 +688,9 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                     continue;
                 }
                 let members: Vec<&Stage> = stages.iter().filter(|s| s.base_id == r).collect();
+                if rejected.contains(&r) {
+                    tainted = true;
+                }
                 if members.is_empty() && rejected.contains(&r) {
                     continue; // already reported where it is defined
                 }
@@ -557,6 +706,8 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
                         let m = format!("{r}-{k}{v}");
                         if ids.contains_key(&m) {
                             out.push(m);
+                        } else if rejected.contains(&m) {
+                            tainted = true;
                         } else {
                             let sid = stages[idx].id.clone();
                             diags.push(path, line, format!("stages[{sid}].inputs"), format!("missing input: `{r}` has no member for {k} = {v}"), format!("add {v} to the matrix of `{r}`"));
@@ -567,7 +718,22 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
             }
             resolved.push((role, out));
         }
+        if !tainted && diags.0.len() == n_diags {
+            let st = &stages[idx];
+            for (message, help) in check::check_roles(&st.kind, &st.params, &resolved) {
+                let l = line.and_then(|ln| locate(&text, &["inputs"], ln)).or(line);
+                diags.push(path, l, format!("stages[{}].inputs", st.id), message, help);
+            }
+        }
         stages[idx].inputs = resolved;
+    }
+    // Stages declaring no inputs at all still need their required roles.
+    for (i, st) in stages.iter().enumerate() {
+        if st.inputs.is_empty() && !declared_inputs.contains(&i) {
+            for (message, help) in check::check_roles(&st.kind, &st.params, &[]) {
+                diags.push(path, st.line, format!("stages[{}].inputs", st.id), message, help);
+            }
+        }
     }
     if !diags.is_empty() {
         return Err(diags);
@@ -575,8 +741,9 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
     // Topological order; report a cycle by name.
     match super::dag::topo_order(&stages) {
         Ok(order) => {
-            let stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
-            let index = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+            let mut stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
+            let index: HashMap<String, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
+            inherit_overrides(&mut stages, &index);
             Ok(Pipeline { path: path.to_path_buf(), root, profile: profile.to_string(), stages, index, kinds })
         }
         Err(cycle) => {

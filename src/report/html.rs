@@ -21,12 +21,19 @@ fn num(v: &Value) -> String {
 
 /// Rebuild the index of one profile's report directory.
 pub fn write_index(dir: &Path, profile: &str) -> std::io::Result<()> {
-    let mut ids: Vec<String> = std::fs::read_dir(dir)?
+    let ids: Vec<String> = std::fs::read_dir(dir)?
         .filter_map(|e| e.ok())
         .map(|e| e.file_name().to_string_lossy().to_string())
         .filter(|n| n.ends_with(".json") && !n.ends_with(".record.json"))
         .map(|n| n.trim_end_matches(".json").to_string())
         .collect();
+    write_index_of(dir, profile, &ids)
+}
+
+/// Rebuild the index of one profile's report directory listing exactly the stages `ids`
+/// (the pipeline's stage list) that have published outputs.
+pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Result<()> {
+    let mut ids: Vec<String> = ids.iter().filter(|id| dir.join(format!("{id}.json")).exists()).cloned().collect();
     ids.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
     let mut h = String::new();
     let _ = write!(

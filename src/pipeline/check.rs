@@ -1,0 +1,223 @@
+//! Checks of a pipeline that do not belong to one kind's schema: safe stage ids, numbers
+//! that are finite and not absurdly large, the input roles each kind reads, and one
+//! message per root cause.
+
+use std::collections::BTreeMap;
+
+use serde_json::Value as Json;
+use serde_yaml::Value as Yaml;
+
+use super::diag::{Diagnostic, Diagnostics};
+
+/// Longest stage id allowed.
+pub const MAX_ID_LEN: usize = 100;
+
+/// Check a stage id: `[A-Za-z0-9][A-Za-z0-9._-]*`, no `..`, at most [`MAX_ID_LEN`]
+/// characters. Ids become file names under `reports/`, so nothing else is allowed.
+pub fn check_id(id: &str) -> Result<(), String> {
+    let shown = format!("{id:?}");
+    if id.is_empty() {
+        return Err("the stage id is empty".into());
+    }
+    if id.len() > MAX_ID_LEN {
+        return Err(format!("stage id {shown} is {} characters long (at most {MAX_ID_LEN})", id.len()));
+    }
+    if !id.chars().next().is_some_and(|c| c.is_ascii_alphanumeric()) {
+        return Err(format!("stage id {shown} must start with a letter or digit"));
+    }
+    if let Some(c) = id.chars().find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))) {
+        return Err(format!("stage id {shown} contains {c:?}"));
+    }
+    if id.contains("..") {
+        return Err(format!("stage id {shown} contains `..`"));
+    }
+    Ok(())
+}
+
+/// What stage ids may contain, for help lines.
+pub const ID_HELP: &str = "ids match [A-Za-z0-9][A-Za-z0-9._-]* (no `..`, at most 100 characters); they name files under reports/";
+
+/// Largest magnitude accepted for a floating-point parameter. No physical parameter of
+/// the chapter comes near it (E ~ 1e8 Pa, k_n ~ 1e5 N/m, ρ ~ 2.5e3 kg/m³); values beyond
+/// it (1e308) overflow the solvers' arithmetic instead of meaning anything.
+pub const MAX_MAGNITUDE: f64 = 1e15;
+
+/// A number that cannot be a parameter: (dotted key, rendered value, what is allowed).
+pub type BadNumber = (String, String, String);
+
+/// Every float in `v` that is NaN, infinite or larger in magnitude than
+/// [`MAX_MAGNITUDE`], with its dotted key.
+pub fn bad_numbers(v: &Yaml) -> Vec<BadNumber> {
+    let mut out = Vec::new();
+    walk(v, String::new(), &mut out);
+    out
+}
+
+fn walk(v: &Yaml, key: String, out: &mut Vec<BadNumber>) {
+    match v {
+        Yaml::Mapping(m) => {
+            for (k, x) in m {
+                let ks = match k {
+                    Yaml::String(s) => s.clone(),
+                    other => serde_yaml::to_string(other).unwrap_or_default().trim().to_string(),
+                };
+                walk(x, if key.is_empty() { ks } else { format!("{key}.{ks}") }, out);
+            }
+        }
+        Yaml::Sequence(s) => {
+            for (i, x) in s.iter().enumerate() {
+                walk(x, format!("{key}[{i}]"), out);
+            }
+        }
+        Yaml::Tagged(t) => walk(&t.value, key, out),
+        Yaml::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            if !x.is_finite() {
+                out.push((key, n.to_string(), "must be a finite number (not .nan / .inf)".into()));
+            } else if x.abs() > MAX_MAGNITUDE {
+                out.push((key, n.to_string(), format!("must be a physically plausible number, |value| <= {MAX_MAGNITUDE:e}")));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// How many stages a role takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Arity {
+    /// Exactly one stage, always.
+    One,
+    /// Exactly one stage, when given.
+    OptionalOne,
+    /// One or more stages (fan-in).
+    Many,
+}
+
+/// The input roles a kind reads, with their arity. Kept here, beside validation, so a
+/// missing or misnamed input is an error before anything runs; a kind's run function
+/// must read only these roles (`tests/bad_input.rs` checks the shipped pipeline).
+pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
+    use Arity::*;
+    Some(match kind {
+        "psd" | "reference-laws" => vec![],
+        "psd-figure" | "dem-pile-prep" => vec![("psd", One)],
+        // μ_r and the rolling model from the joint calibration, when declared
+        "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],
+        "dem-calibration-point" => vec![("psd", One), ("columns", Many)],
+        "dem-calibration" => vec![("points", Many)],
+        // A hexagonal lattice is monodisperse: no PSD needed.
+        "dem-column-prep" => vec![("psd", if params.get("packing").and_then(|p| p.as_str()) == Some("hex") { OptionalOne } else { One })],
+        "dem-snapshot" => vec![("column", One)],
+        "dem-collapse" | "dem-compress" | "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne)],
+        "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
+        "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
+        "power-law-fit" => {
+            let overlays = params.get("overlay_laws").and_then(|o| o.as_array()).is_some_and(|a| !a.is_empty());
+            vec![("data", Many), ("laws", if overlays { One } else { OptionalOne })]
+        }
+        _ => return None,
+    })
+}
+
+/// Problems with a stage's resolved inputs against its kind's roles: (message, help).
+pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) -> Vec<(String, String)> {
+    let Some(want) = roles(kind, params) else { return vec![] };
+    let allowed = if want.is_empty() { "none (this kind reads no inputs)".to_string() } else { want.iter().map(|(r, _)| *r).collect::<Vec<_>>().join(", ") };
+    let mut out = Vec::new();
+    for (role, ids) in inputs {
+        match want.iter().find(|(r, _)| r == role) {
+            None => out.push((
+                format!("input role `{role}` is not read by kind `{kind}`"),
+                format!("roles of `{kind}`: {allowed}; write `inputs: {{ ROLE: STAGE }}`"),
+            )),
+            Some((_, Arity::One | Arity::OptionalOne)) if ids.len() != 1 => out.push((
+                format!("input `{role}` must name exactly one stage (it names {}: {})", ids.len(), ids.join(", ")),
+                "name one stage, or one matrix member (e.g. `col-dem-prep-a0.4`)".into(),
+            )),
+            _ => {}
+        }
+    }
+    for (role, arity) in &want {
+        if matches!(arity, Arity::One | Arity::Many) && !inputs.iter().any(|(r, _)| r == role) {
+            out.push((format!("missing required input `{role}` of kind `{kind}`"), format!("add `inputs: {{ {role}: STAGE }}`; roles of `{kind}`: {allowed}")));
+        }
+    }
+    out
+}
+
+/// One message per root cause: the same problem found in several stages (a bad value in
+/// a shared stage file, or in both profiles) is printed once, naming every stage.
+pub fn dedupe(d: Diagnostics) -> Diagnostics {
+    // Group on (file, line, key without the stage prefix, message).
+    let mut groups: BTreeMap<(String, Option<usize>, String, String), (usize, Vec<String>, Diagnostic)> = BTreeMap::new();
+    for (i, x) in d.0.into_iter().enumerate() {
+        let (stage, rest) = split_stage_key(&x.key);
+        let g = groups.entry((x.file.display().to_string(), x.line, rest.clone(), x.message.clone())).or_insert_with(|| (i, Vec::new(), x.clone()));
+        if let Some(s) = stage {
+            if !g.1.contains(&s) {
+                g.1.push(s);
+            }
+        }
+    }
+    let mut v: Vec<(usize, Diagnostic)> = groups
+        .into_values()
+        .map(|(i, stages, mut x)| {
+            if stages.len() > 1 {
+                let (_, rest) = split_stage_key(&x.key);
+                x.key = format!("stages[{}]{rest}", stages.join(", "));
+            }
+            (i, x)
+        })
+        .collect();
+    v.sort_by_key(|(i, _)| *i);
+    Diagnostics(v.into_iter().map(|(_, x)| x).collect())
+}
+
+/// `stages[ID].rest` → (Some(ID), ".rest"); anything else → (None, key).
+fn split_stage_key(key: &str) -> (Option<String>, String) {
+    if let Some(inner) = key.strip_prefix("stages[") {
+        if let Some(end) = inner.find(']') {
+            return (Some(inner[..end].to_string()), inner[end + 1..].to_string());
+        }
+    }
+    (None, key.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids() {
+        for ok in ["psd-col", "col-dem-prep-a0.4", "A_1", "0x"] {
+            assert!(check_id(ok).is_ok(), "{ok}");
+        }
+        for bad in ["", "../../../escaped-laws", "sub/laws", ".hidden", "a..b", "x\ny", "a b", "-x", "é", &"a".repeat(101)] {
+            assert!(check_id(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn numbers() {
+        let v: Yaml = serde_yaml::from_str("a: .nan\nb: {c: -.inf}\nd: 1e308\ne: 2.5e3\nf: [1.0, .inf]\nseed: 18446744073709551615").unwrap();
+        let keys: Vec<String> = bad_numbers(&v).into_iter().map(|b| b.0).collect();
+        assert_eq!(keys, ["a", "b.c", "d", "f[1]"]);
+    }
+
+    #[test]
+    fn every_kind_has_its_roles_declared() {
+        for name in crate::stages::registry().keys() {
+            assert!(roles(name, &serde_json::json!({})).is_some(), "kind `{name}` is missing from check::roles");
+        }
+    }
+
+    #[test]
+    fn role_table() {
+        let p = serde_json::json!({});
+        assert!(check_roles("psd-figure", &p, &[("psd".into(), vec!["x".into()])]).is_empty());
+        assert_eq!(check_roles("psd-figure", &p, &[]).len(), 1);
+        assert_eq!(check_roles("psd", &p, &[("psd".into(), vec!["x".into()])]).len(), 1);
+        assert!(check_roles("dem-column-prep", &serde_json::json!({"packing": "hex"}), &[]).is_empty());
+        assert_eq!(check_roles("dem-collapse", &p, &[("column".into(), vec!["a".into(), "b".into()])]).len(), 1);
+    }
+}
