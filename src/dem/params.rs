@@ -93,11 +93,11 @@ impl ContactParams {
     /// Damping ratio ζ of this family.
     pub fn damping_ratio(&self) -> Real { damping_ratio(self.restitution, self.damping_model) }
     fn check(&self, c: &mut Checker) {
-        c.positive("kn", self.kn);
-        c.positive("kt", self.kt);
-        c.non_negative("friction", self.friction);
+        c.plausible("kn", self.kn, 1.0, 1e12, "contact stiffness [N/m per metre]");
+        c.plausible("kt", self.kt, 1.0, 1e12, "contact stiffness [N/m per metre]");
+        c.plausible("friction", self.friction, 0.0, 10.0, "Coulomb coefficient");
         c.in_open_closed("restitution", self.restitution, 0.0, 1.0);
-        c.non_negative("tangential_damping_ratio", self.tangential_damping_ratio);
+        c.plausible("tangential_damping_ratio", self.tangential_damping_ratio, 0.0, 10.0, "fraction of C_n");
     }
 }
 
@@ -242,9 +242,9 @@ impl DemParams {
     /// All invalid values at once (keys relative to the DEM params block).
     pub fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.positive("density", self.density);
-        c.non_negative("gravity", self.gravity);
-        c.positive("dt", self.dt);
+        c.plausible("density", self.density, 100.0, 2.5e4, "grain density [kg/m³]");
+        c.plausible("gravity", self.gravity, 0.0, 100.0, "gravity [m/s²]");
+        c.plausible("dt", self.dt, 1e-15, 1.0, "time step [s]");
         let mut g = Checker::new("grain");
         self.grain.check(&mut g);
         c.extend(g);
@@ -252,13 +252,13 @@ impl DemParams {
         self.wall.check(&mut w);
         c.extend(w);
         if self.rolling.enabled {
-            c.positive("rolling.kr", self.rolling.kr);
-            c.non_negative("rolling.cr", self.rolling.cr);
-            c.non_negative("rolling.mu_r", self.rolling.mu_r);
+            c.plausible("rolling.kr", self.rolling.kr, 1e-15, 1e9, "rolling stiffness [N·m/rad]");
+            c.plausible("rolling.cr", self.rolling.cr, 0.0, 1e6, "rolling dashpot [N·m·s/rad]");
+            c.plausible("rolling.mu_r", self.rolling.mu_r, 0.0, 10.0, "rolling friction coefficient");
         }
         c.in_open("skin_fraction", self.skin_fraction, 0.0, 2.0);
         c.in_open("watchdog.max_overlap_fraction", self.watchdog.max_overlap_fraction, 0.0, 1.0);
-        c.non_negative("watchdog.energy_rise_fraction", self.watchdog.energy_rise_fraction);
+        c.plausible("watchdog.energy_rise_fraction", self.watchdog.energy_rise_fraction, 0.0, 1e3, "fraction of E_0");
         c.issues
     }
 }

@@ -278,9 +278,9 @@ impl MpmParams {
     pub fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
         let m = &self.material;
-        c.positive("material.young_pa", m.young_pa);
+        c.plausible("material.young_pa", m.young_pa, 1e3, 1e12, "Young's modulus [Pa]");
         c.in_open("material.poisson", m.poisson, -1.0, 0.5);
-        c.positive("material.density", m.density);
+        c.plausible("material.density", m.density, 100.0, 2.5e4, "bulk density [kg/m³]");
         c.in_open("material.friction_deg", m.friction_deg, 0.0, 90.0);
         c.check(
             m.dilation_deg.is_finite() && m.dilation_deg >= 0.0 && m.dilation_deg <= m.friction_deg,
@@ -288,10 +288,10 @@ impl MpmParams {
             m.dilation_deg,
             "in [0, friction_deg]",
         );
-        c.non_negative("material.cohesion_pa", m.cohesion_pa);
-        c.non_negative("material.tension_cutoff_pa", m.tension_cutoff_pa);
-        c.positive("material.grain_diameter", m.grain_diameter);
-        c.positive("material.grain_density", m.grain_density);
+        c.plausible("material.cohesion_pa", m.cohesion_pa, 0.0, 1e9, "cohesion [Pa]");
+        c.plausible("material.tension_cutoff_pa", m.tension_cutoff_pa, 0.0, 1e9, "tension cut-off [Pa]");
+        c.plausible("material.grain_diameter", m.grain_diameter, 1e-6, 1.0, "grain diameter [m]");
+        c.plausible("material.grain_density", m.grain_density, 100.0, 2.5e4, "grain density [kg/m³]");
         c.positive("material.i_max", m.i_max);
         match m.model {
             Model::MuILinear { mu_min, b } => {
@@ -305,7 +305,7 @@ impl MpmParams {
             }
             _ => {}
         }
-        c.positive("cell_size", self.cell_size);
+        c.plausible("cell_size", self.cell_size, 1e-5, 10.0, "cell size [m]");
         let n = self.ppc_1d();
         c.check(self.ppc >= 1 && n * n == self.ppc, "ppc", self.ppc, "a perfect square >= 1 (1, 4, 9, 16, 25, ...)");
         c.in_closed("flip", self.flip, 0.0, 1.0);
@@ -316,8 +316,8 @@ impl MpmParams {
                 c.positive("step.cfl.dt_max", dt_max);
             }
         }
-        c.non_negative("gravity", self.gravity);
-        c.non_negative("wall_friction", self.wall_friction);
+        c.plausible("gravity", self.gravity, 0.0, 100.0, "gravity [m/s²]");
+        c.plausible("wall_friction", self.wall_friction, 0.0, 10.0, "Coulomb coefficient");
         let g = &self.geostatic;
         c.in_closed("geostatic.damping", g.damping, 0.0, 1.0);
         c.positive("geostatic.ke_tol", g.ke_tol);
