@@ -130,3 +130,32 @@ fn dashpot_dissipation_is_booked_in_the_ledger() {
     assert!(drop > 0.0 && (b.ledger.rolling - drop).abs() <= 1e-9 * drop, "booked {:e}, E_rot fell by {drop:e}", b.ledger.rolling);
     assert!(b.residual.abs() < 1e-5 * e0, "residual {:e} of E_0 {e0:e}", b.residual);
 }
+
+#[test]
+fn capped_model_limits_spring_plus_dashpot_to_the_rolling_cap() {
+    // μ_r r_eff F_n caps the *total* rolling moment of the capped model: the angular
+    // impulse one step can pass between the pair is at most Δt·μ_r r_eff F_n. The EPSD
+    // model's dashpot is not capped and passes far more (it locks the pair).
+    let (r1, r2) = (0.46e-3, 0.69e-3);
+    let impulse = |model: granrepro::dem::RollingModel| {
+        let mut p = dashpot_only();
+        p.rolling.mu_r = 0.01;
+        p.rolling.model = model;
+        let mut s = State::new();
+        s.insert(0.0, 0.0, r1, RHO);
+        s.insert(r1 + r2 - 1e-7, 0.0, r2, RHO); // overlap 1e-7 m: F_n ≈ k_n·1e-7 = 16 N
+        s.w[0] = 10.0;
+        let mut w = World::new(p, s, vec![], None).unwrap();
+        let l0 = w.state.inertia[0] * w.state.w[0];
+        w.step().unwrap();
+        (l0 - w.state.inertia[0] * w.state.w[0]).abs()
+    };
+    let dt = DemParams::default().dt;
+    let cap = 0.01 * (r1 * r2 / (r1 + r2)) * 1.6e8 * 1e-7;
+    let capped = impulse(granrepro::dem::RollingModel::Capped);
+    let epsd = impulse(granrepro::dem::RollingModel::Epsd);
+    eprintln!("angular impulse in one step: capped {capped:e}, epsd {epsd:e}, Δt·cap {:e}", dt * cap);
+    assert!(capped <= 1.05 * dt * cap, "capped model passed {capped:e} > Δt·cap = {:e}", dt * cap);
+    assert!(capped > 0.5 * dt * cap, "the cap should be reached: {capped:e}");
+    assert!(epsd > 10.0 * dt * cap, "EPSD dashpot is uncapped: {epsd:e}");
+}

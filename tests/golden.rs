@@ -12,9 +12,10 @@ use granrepro::pipeline::{Project, RunOptions, load, run::run};
 /// profile (solver stages to 4 significant digits, the rest to 6).
 const GOLDEN: &[&str] = &[
     "psd-col", "psd-pile", "psd-shear", "fig4-01b", "tab4-01", "tab4-02", "tab4-03", "laws",
-    "col-dem-prep-a0.4", "col-dem-prep-a0.8", "col-dem-prep-a1", "col-dem-prep-hex",
-    "col-dem-prep-loose", "col-dem-prep-dense", "fig4-01a", "fig4-02", "fig4-03",
-    "compress-dem", "col-dem-a0.4", "col-dem-no-rolling-damper", "wp-dem-column", "fig4-23",
+    "col-dem-prep-a0.4", "col-dem-prep-a0.8", "col-dem-prep-a1", "col-dem-prep-a6", "col-dem-prep-hex",
+    "col-dem-prep-loose", "col-dem-prep-dense", "calib-point-mu_r0.1", "calib-point-mu_r0.3",
+    "calib-point-capped-mu_r0.1", "calib-point-capped-mu_r0.3", "calib-dem", "fig4-01a", "fig4-02", "fig4-03",
+    "compress-dem", "col-dem-a0.4", "col-dem-a6", "col-dem-no-rolling-damper", "wp-dem-column", "fig4-23",
     "fig4-04", "col-mpm-a0.4", "wp-mpm-column",
 ];
 
