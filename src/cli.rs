@@ -54,6 +54,8 @@ pub enum BenchEngine {
     Dem,
     /// 40,000-point a = 1 MPM column, 16 PPC, 2 mm cells, Mohr–Coulomb.
     Mpm,
+    /// CD deposit of the Siconos reference script (25 × 20 and 40 × 25 disks, h = 2e-3 s).
+    Cd,
 }
 
 /// Subcommands.
@@ -400,6 +402,31 @@ fn bench(engine: BenchEngine, steps: Option<u64>) -> i32 {
                         ),
                         Err(e) => {
                             eprintln!("error: bench dem: {e}");
+                            return 1;
+                        }
+                    }
+                }
+            }
+            0
+        }
+        BenchEngine::Cd => {
+            let steps = steps.unwrap_or(2000);
+            for (ncol, nrow) in [(25, 20), (40, 25)] {
+                for &t in &threads {
+                    match crate::cd::bench::run(ncol, nrow, t, steps) {
+                        Ok(r) => println!(
+                            "{}",
+                            serde_json::json!({
+                                "bench": "cd-pile", "case": r.case, "threads": r.threads, "particles": r.particles,
+                                "contacts": r.contacts, "contacts_last": r.contacts_last, "steps": r.steps,
+                                "iterations": r.iterations, "wall_s": r.wall_s, "contact_iterations_per_s": r.contact_iterations_per_s,
+                                "unconverged": r.unconverged, "max_residual": r.max_residual,
+                                "packing_fraction": r.packing_fraction, "ke_over_mgd": r.ke_over_mgd,
+                                "detect_s": r.timers.detect, "solve_s": r.timers.solve, "update_s": r.timers.update,
+                            })
+                        ),
+                        Err(e) => {
+                            eprintln!("error: bench cd: {e}");
                             return 1;
                         }
                     }

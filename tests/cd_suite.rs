@@ -5,5 +5,7 @@ mod cd_verification;
 mod cd_energy_balance;
 #[path = "cd_determinism_threads.rs"]
 mod cd_determinism_threads;
+#[path = "cd_shear.rs"]
+mod cd_shear;
 #[path = "cd_stability_preflight.rs"]
 mod cd_stability_preflight;

@@ -32,6 +32,8 @@ pub mod preflight;
 pub mod energy;
 pub mod world;
 pub mod pile;
+pub mod bench;
+pub mod shear;
 
 pub use energy::{Balance, Energies, Ledger};
 pub use error::CdError;

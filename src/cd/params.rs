@@ -47,7 +47,7 @@ pub struct CdParams {
     pub tolerance: Real,
     /// Second convergence test, checked once the first passes: the natural-map residual of
     /// the local Signorini–Coulomb problems (De Saxcé's modified velocity, Siconos-like),
-    /// ‖P − proj_K(P − ρ q̂)‖₂/‖P‖₂ with ρ = 1/W_nn. 1e-3: Gauss–Seidel's last sweep
+    /// ‖P − proj_K(P − ρ q̂)‖₂/‖(P, ρq)‖₂ with ρ = 1/W_nn. 1e-3: Gauss–Seidel's last sweep
     /// underestimates the distance to the solution on long force chains by about 10×.
     pub residual_tolerance: Real,
     /// Iteration cap per step. Steps that reach it are counted as unconverged and reported.

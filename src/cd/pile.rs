@@ -6,7 +6,7 @@
 
 use crate::cd::error::CdError;
 use crate::cd::params::CdParams;
-use crate::cd::world::{Stats, World};
+use crate::cd::world::{Stats, Timers, World};
 use crate::dem::prep::SplitMix64;
 use crate::dem::state::State;
 use crate::dem::walls::Wall;
@@ -111,6 +111,8 @@ pub struct DropResult {
     pub ke_over_mgd: Real,
     /// Wall time of the steps [s].
     pub wall_s: f64,
+    /// Seconds per phase.
+    pub timers: Timers,
 }
 
 /// Drop the lattice and run `steps` steps.
@@ -135,6 +137,7 @@ pub fn drop(spec: &DropSpec, params: &CdParams, steps: u64) -> Result<DropResult
         contacts_last: w.last.contacts,
         contacts_mean: csum / steps.max(1) as Real,
         stats: w.stats,
+        timers: w.timers,
         state: w.state,
         wall_s,
     })

@@ -1,6 +1,7 @@
 //! Pre-flight of every step: no grain may move more than half the alert distance in one
 //! step, so no pair can close from beyond the alert distance unseen. Checked on the
-//! start-of-step speeds before the step (refuse) and on the actual motion after it.
+//! start-of-step speeds before the step (refuse), and after it on the actual motion, which
+//! must stay within the alert distance itself.
 
 use crate::cd::body::Body;
 use crate::cd::error::CdError;
@@ -18,7 +19,8 @@ pub fn fastest(bodies: &[Body]) -> (usize, Real) {
     (best.0, best.1.sqrt())
 }
 
-/// Refuse `speed·h > alert/2` with the limit and both fixes.
+/// Refuse `speed·h > alert/2` with the limit and both fixes (`alert` is the budget: pass
+/// twice the alert distance for the after-step check).
 pub fn check_motion(step: u64, t: Real, body: usize, speed: Real, h: Real, alert: Real, d_min: Real) -> Result<(), CdError> {
     let disp = speed * h;
     if disp > 0.5 * alert {

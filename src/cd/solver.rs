@@ -11,7 +11,7 @@
 //!
 //! Convergence (both stated, both reported): (1) the quadratic-mean relative impulse change
 //! of one sweep η = ‖ΔP‖₂/‖P‖₂ ≤ `tolerance` (LMGC90 "Quad"-like); once it passes, (2) the
-//! natural-map residual r = ‖P − proj_K(P − ρ q̂)‖₂/‖P‖₂, ρ = 1/W_nn, q̂ = (q_n + μ|q_t|, q_t)
+//! natural-map residual r = ‖P − proj_K(P − ρ q̂)‖₂/‖(P, ρq)‖₂, ρ = 1/W_nn, q̂ = (q_n + μ|q_t|, q_t)
 //! (De Saxcé), ≤ `residual_tolerance`. `max_iterations` caps the sweeps; a capped step is
 //! reported unconverged. Plain sequential sweeps: the result does not depend on threads.
 
@@ -107,7 +107,8 @@ pub struct Settings {
     pub relaxation: Real,
 }
 
-/// Natural-map residual ‖P − proj_K(P − ρ q̂)‖₂ / ‖P‖₂ of the current state (no update).
+/// Natural-map residual ‖P − proj_K(P − ρ q̂)‖₂ / ‖(P, ρq)‖₂ of the current state (no
+/// update; the ρq term only matters where no contact carries an impulse).
 pub fn residual(rows: &[Row], bodies: &[Body]) -> Real {
     let (mut num, mut den) = (0.0, 0.0);
     for r in rows {
@@ -118,9 +119,9 @@ pub fn residual(rows: &[Row], bodies: &[Body]) -> Real {
         let pr = project_cone(z, r.mu);
         let d = [r.p[0] - pr[0], r.p[1] - pr[1]];
         num += d[0] * d[0] + d[1] * d[1];
-        den += r.p[0] * r.p[0] + r.p[1] * r.p[1];
+        den += r.p[0] * r.p[0] + r.p[1] * r.p[1] + rho * rho * (q[0] * q[0] + q[1] * q[1]);
     }
-    if den > 0.0 { (num / den).sqrt() } else if num > 0.0 { Real::INFINITY } else { 0.0 }
+    if den > 0.0 { (num / den).sqrt() } else { 0.0 }
 }
 
 /// Projection of (z_n, z_t) on the Coulomb cone |z_t| ≤ μ z_n.

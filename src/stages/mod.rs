@@ -11,6 +11,7 @@ use serde_json::Value;
 use crate::pipeline::context::{Output, StageCtx};
 use crate::validate::Issue;
 
+pub mod cd_stages;
 pub mod dem_stages;
 pub mod fit_stage;
 pub mod laws;
@@ -118,6 +119,8 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         dem_stages::COMPRESS_KIND,
         dem_stages::WP_KIND,
         dem_stages::PILE_KIND,
+        cd_stages::SHEAR_KIND,
+        cd_stages::SHEAR_FIGURE_KIND,
         mpm_stages::GEOSTATIC_KIND,
         mpm_stages::COLLAPSE_KIND,
         mpm_stages::WP_KIND,
