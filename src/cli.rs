@@ -126,7 +126,8 @@ pub enum Cmd {
         #[arg(long = "set")]
         sets: Vec<String>,
     },
-    /// Run one ad-hoc DEM column scene (psd + column + run sections) outside the pipeline.
+    /// Run one ad-hoc scene outside the pipeline: a DEM column (psd + column + run sections)
+    /// or, with `engine: cd`, a CD shear cell or pile.
     Simulate {
         /// Scene file (YAML; see docs/pipeline.md).
         scene: PathBuf,
@@ -359,6 +360,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
+        Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
         Cmd::Bench { engine, steps } => bench(engine, steps),
         Cmd::Clean { reports } => {

@@ -51,6 +51,9 @@ pub struct CdParams {
     /// underestimates the distance to the solution on long force chains by about 10×.
     pub residual_tolerance: Real,
     /// Iteration cap per step. Steps that reach it are counted as unconverged and reported.
+    /// 4000: in dense quasi-static shear the sweep count is heavy-tailed (mean ≈ 1000 at
+    /// tolerance 1e-4); a cap of 1000 left 45 % of the steps unconverged and lowered μ* by
+    /// ≈ 0.03, a cap of 4000 converges all but ≈ 0.2 % for +20 % sweeps.
     pub max_iterations: u32,
     /// Under-relaxation ω ∈ (0, 1] of the local solution (1: plain NLGS).
     pub relaxation: Real,
@@ -79,7 +82,7 @@ impl Default for CdParams {
             alert_fraction: 0.1,
             tolerance: 1e-4,
             residual_tolerance: 1e-3,
-            max_iterations: 1000,
+            max_iterations: 4000,
             relaxation: 1.0,
             skin_factor: 4.0,
             max_penetration: 0.05,

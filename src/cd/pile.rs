@@ -142,3 +142,55 @@ pub fn drop(spec: &DropSpec, params: &CdParams, steps: u64) -> Result<DropResult
         wall_s,
     })
 }
+
+/// Settle a lattice drop for `time` seconds; returns the grains and the box walls.
+pub fn settled_deposit(spec: &DropSpec, params: &CdParams, time: Real) -> Result<(State, Vec<Wall>), CdError> {
+    let (st, walls) = spec.build(params.density);
+    let mut w = World::new(params.clone(), st, walls, None)?;
+    let steps = (time / params.dt).ceil() as u64;
+    w.run(steps)?;
+    let mut s = w.state;
+    s.stop();
+    Ok((s, w.walls))
+}
+
+/// Result of a pile impact.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImpactResult {
+    /// Normalised run-out (L_f − L_0)/L_0, L_f the 99th percentile of x + r (a few ejected
+    /// grains do not count), L_0 the box width.
+    pub runout: Real,
+    /// Energy dissipated by contacts over the run [J/m].
+    pub dissipated: Real,
+    /// Kinetic energy given at t = 0 [J/m].
+    pub ek0: Real,
+    /// Kinetic energy left at the end [J/m].
+    pub ek_final: Real,
+    /// Run counters.
+    pub stats: Stats,
+    /// Wall time [s].
+    pub wall_s: f64,
+}
+
+/// Remove the right wall of a settled deposit and give the grains the chapter's gradient
+/// excitation v_x = v0 (y_max − y)/y_max (figures.md SC-PILE); run for `time` seconds.
+pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0: Real, time: Real) -> Result<ImpactResult, CdError> {
+    let mut s = state.clone();
+    let y_max = s.y.iter().cloned().fold(0.0, Real::max);
+    for i in 0..s.len() {
+        s.vx[i] = v0 * (y_max - s.y[i]) / y_max;
+    }
+    let walls: Vec<Wall> = walls.iter().filter(|w| w.name != "right").cloned().collect();
+    let mut w = World::new(params.clone(), s, walls, None)?;
+    let ek0 = w.energies().ek;
+    let t0 = Instant::now();
+    let steps = (time / params.dt).round() as u64;
+    w.run(steps)?;
+    let wall_s = t0.elapsed().as_secs_f64();
+    let st = &w.state;
+    let mut fr: Vec<Real> = (0..st.len()).map(|i| st.x[i] + st.r[i]).collect();
+    fr.sort_by(|a, b| a.total_cmp(b));
+    let lf = fr[((0.99 * fr.len() as Real) as usize).min(fr.len() - 1)];
+    let e = w.energies();
+    Ok(ImpactResult { runout: (lf - width) / width, dissipated: w.ledger.dissipated(), ek0, ek_final: e.ek + e.erot, stats: w.stats, wall_s })
+}

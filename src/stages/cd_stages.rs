@@ -208,3 +208,254 @@ pub const SHEAR_FIGURE_KIND: Kind = Kind {
     run: run_shear_figure,
     explain: None,
 };
+
+/// One work-precision variant.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WpVariant {
+    /// Time step [s].
+    pub dt: f64,
+    /// NLGS tolerance (‖ΔP‖/‖P‖); the residual tolerance is 10× it.
+    pub tolerance: f64,
+}
+
+/// Parameters of a `cd-work-precision` stage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WpParams {
+    /// Solver parameters (dt and tolerances replaced per variant).
+    pub cd: CdParams,
+    /// The deposit (lattice drop, PSD-PILE sizes at scale 2.455 mm).
+    pub deposit: crate::cd::pile::DropSpec,
+    /// Settling time of the deposit [s].
+    pub settle_time: f64,
+    /// Gradient excitation: v_x at the base [m/s].
+    pub v0: f64,
+    /// Simulated time after the excitation [s].
+    pub run_time: f64,
+    /// Variants; the first is the reference (finest step, tightest tolerance).
+    pub variants: Vec<WpVariant>,
+}
+
+impl Default for WpParams {
+    fn default() -> Self {
+        WpParams { cd: CdParams::default(), deposit: crate::cd::pile::DropSpec { ncol: 20, nrow: 10, scale: 2.455e-3, seed: 1 }, settle_time: 0.3, v0: 0.5, run_time: 0.4, variants: vec![] }
+    }
+}
+
+impl Validate for WpParams {
+    fn validate(&self) -> Vec<Issue> {
+        let mut c = Checker::new("");
+        check_cd(&self.cd, &mut c);
+        c.check(self.variants.len() >= 2, "variants", self.variants.len(), "at least two (the first is the reference)");
+        for (k, v) in self.variants.iter().enumerate() {
+            c.positive(&format!("variants[{k}].dt"), v.dt);
+            c.in_open(&format!("variants[{k}].tolerance"), v.tolerance, 0.0, 0.1);
+        }
+        c.check(self.deposit.ncol >= 3 && self.deposit.nrow >= 2, "deposit", format!("{}x{}", self.deposit.ncol, self.deposit.nrow), "at least 3 columns and 2 rows");
+        c.positive("deposit.scale", self.deposit.scale);
+        c.positive("settle_time", self.settle_time);
+        c.positive("v0", self.v0);
+        c.positive("run_time", self.run_time);
+        c.issues
+    }
+}
+
+fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
+    use crate::cd::pile::{impact, settled_deposit};
+    let p: WpParams = decode(ctx)?;
+    let (state, walls) = settled_deposit(&p.deposit, &p.cd, p.settle_time)?;
+    let width = p.deposit.width();
+    let mut rows = Vec::new();
+    for (k, v) in p.variants.iter().enumerate() {
+        ctx.set_progress(k as f64 / p.variants.len() as f64);
+        let cd = CdParams { dt: v.dt, tolerance: v.tolerance, residual_tolerance: (10.0 * v.tolerance).min(0.5), ..p.cd.clone() };
+        rows.push(impact(&state, &walls, width, &cd, p.v0, p.run_time)?);
+    }
+    ctx.set_progress(1.0);
+    let r0 = &rows[0];
+    let err_l: Vec<f64> = rows.iter().map(|r| ((r.runout - r0.runout) / r0.runout).abs()).collect();
+    let err_d: Vec<f64> = rows.iter().map(|r| ((r.dissipated - r0.dissipated) / r0.dissipated).abs()).collect();
+    let mut out = Output::default();
+    out.table("table", frame(vec![
+        ("dt_s", p.variants.iter().map(|v| v.dt).collect()),
+        ("tolerance", p.variants.iter().map(|v| v.tolerance).collect()),
+        ("runout_norm", rows.iter().map(|r| r.runout).collect()),
+        ("runout_rel_error", err_l.clone()),
+        ("dissipated_j_m", rows.iter().map(|r| r.dissipated).collect()),
+        ("dissipated_rel_error", err_d.clone()),
+        ("ek_final_over_ek0", rows.iter().map(|r| r.ek_final / r.ek0).collect()),
+        ("mean_iterations", rows.iter().map(|r| r.stats.iterations as f64 / r.stats.steps.max(1) as f64).collect()),
+        ("unconverged_steps", rows.iter().map(|r| r.stats.unconverged as f64).collect()),
+        ("max_penetration_d", rows.iter().map(|r| r.stats.max_penetration).collect()),
+    ])?);
+    out.table("timing", frame(vec![("wall_s", rows.iter().map(|r| r.wall_s).collect())])?);
+    out.scalar("reference_runout_norm", r0.runout).scalar("reference_dissipated_j_m", r0.dissipated).scalar("grains", state.len() as f64);
+    out.note(format!("Reference: h = {:.2e} s, tolerance {:.0e} → (L_f − L_0)/L_0 = {:.4}, D = {:.4e} J/m. {} grains, gradient excitation v0 = {} m/s at the base.", p.variants[0].dt, p.variants[0].tolerance, r0.runout, r0.dissipated, state.len(), p.v0));
+    let mut tols: Vec<f64> = p.variants.iter().skip(1).map(|v| v.tolerance).collect();
+    tols.sort_by(|a, b| b.total_cmp(a));
+    tols.dedup();
+    let series = tols
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let pts = p.variants.iter().zip(rows.iter()).zip(err_l.iter()).skip(1).filter(|((v, _), _)| v.tolerance == *t).map(|((_, r), e)| (r.wall_s, e.max(1e-6))).collect();
+            Series::new(format!("run-out, tolerance {t:.0e} (points: h)"), Style::LinePoints, pts, k)
+        })
+        .collect();
+    let chart = Chart::work_precision(ctx.caption.clone().unwrap_or_else(|| "Work-precision of CD".into()), footer(&ctx.profile, &format!("reference h = {:.1e} s, tol {:.0e}", p.variants[0].dt, p.variants[0].tolerance)), series);
+    out.figure("figure", chart.to_svg()?);
+    Ok(out)
+}
+
+/// Kind `cd-work-precision`.
+pub const WP_KIND: Kind = Kind {
+    name: "cd-work-precision",
+    version: 1,
+    about: "work-precision of CD: pile impact run-out and dissipated energy against time step and NLGS tolerance, vs wall time",
+    params: typed::<WpParams>,
+    run: run_wp,
+    explain: None,
+};
+
+/// A CD scene for `granrepro simulate` (a file with `engine: cd`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CdSceneFile {
+    /// Must be `cd`.
+    pub engine: String,
+    /// `shear` (periodic shear → μ*(I)) or `pile` (deposit + impact, one or more variants).
+    pub scene: String,
+    /// CD solver parameters (schema of `stages/cd-solver.yaml`).
+    #[serde(default)]
+    pub cd: serde_yaml::Value,
+    /// Shear scenes: grain sizes (schema of the `psd` kind).
+    #[serde(default)]
+    pub psd: serde_yaml::Value,
+    /// Shear scenes: test settings (schema of `stages/cd-shear.yaml`'s `shear`).
+    #[serde(default)]
+    pub shear: serde_yaml::Value,
+    /// Shear scenes: grains taken from the PSD.
+    #[serde(default)]
+    pub grains: Option<usize>,
+    /// Pile scenes: schema of `stages/wp-cd-pile.yaml` (deposit, settle_time, v0, run_time,
+    /// variants).
+    #[serde(default)]
+    pub pile: serde_yaml::Value,
+}
+
+/// Whether a scene file asks for the CD engine (`engine: cd`).
+pub fn is_cd_scene(path: &std::path::Path) -> bool {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_yaml::from_str::<serde_yaml::Value>(&t).ok())
+        .and_then(|v| v.get("engine").and_then(|e| e.as_str()).map(|e| e == "cd"))
+        .unwrap_or(false)
+}
+
+/// `granrepro simulate` for a CD scene: written as a small pipeline under `out` (psd →
+/// cd-shear → cd-shear-figure, or one cd-work-precision stage) and run there, so the
+/// outputs are the stages' tables, figures and claims. Exit code 0 ok, 1 failed, 2 bad input.
+pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) -> i32 {
+    use crate::pipeline::{Project, RunOptions, load};
+    let nonnull = |v: &serde_yaml::Value| if v.is_null() { serde_yaml::Value::Mapping(Default::default()) } else { v.clone() };
+    let text = match std::fs::read_to_string(scene) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {}: cannot read the scene file: {e}", scene.display());
+            return 2;
+        }
+    };
+    let sf: CdSceneFile = match serde_yaml::from_str(&text) {
+        Ok(s) => s,
+        Err(e) => {
+            let line = e.location().map(|l| format!(":{}", l.line())).unwrap_or_default();
+            eprintln!("error: {}{line}: {e}\n  help: CD scene keys: engine, scene (shear | pile), cd, psd, shear, grains, pile", scene.display());
+            return 2;
+        }
+    };
+    let mk = |id: &str, kind: &str, params: serde_yaml::Value, inputs: Option<(&str, &str)>| {
+        let mut m = serde_yaml::Mapping::new();
+        m.insert("id".into(), id.into());
+        m.insert("kind".into(), kind.into());
+        m.insert("params".into(), params);
+        if let Some((role, id)) = inputs {
+            let mut i = serde_yaml::Mapping::new();
+            i.insert(role.into(), id.into());
+            m.insert("inputs".into(), serde_yaml::Value::Mapping(i));
+        }
+        serde_yaml::Value::Mapping(m)
+    };
+    let stages = match sf.scene.as_str() {
+        "shear" => {
+            let mut sh = serde_yaml::Mapping::new();
+            sh.insert("cd".into(), nonnull(&sf.cd));
+            sh.insert("shear".into(), nonnull(&sf.shear));
+            if let Some(g) = sf.grains {
+                sh.insert("grains".into(), (g as u64).into());
+            }
+            vec![
+                mk("psd", "psd", nonnull(&sf.psd), None),
+                mk("shear", "cd-shear", serde_yaml::Value::Mapping(sh), Some(("psd", "psd"))),
+                mk("figure", "cd-shear-figure", serde_yaml::Value::Mapping(Default::default()), Some(("shear", "shear"))),
+            ]
+        }
+        "pile" => {
+            let mut pl = match nonnull(&sf.pile) {
+                serde_yaml::Value::Mapping(m) => m,
+                _ => {
+                    eprintln!("error: {}: `pile` must be a mapping", scene.display());
+                    return 2;
+                }
+            };
+            pl.insert("cd".into(), nonnull(&sf.cd));
+            vec![mk("pile", "cd-work-precision", serde_yaml::Value::Mapping(pl), None)]
+        }
+        other => {
+            eprintln!("error: {}: scene `{other}` is not a CD scene; expected `shear` or `pile`", scene.display());
+            return 2;
+        }
+    };
+    if sf.engine != "cd" {
+        eprintln!("error: {}: engine `{}` is not `cd`", scene.display(), sf.engine);
+        return 2;
+    }
+    if let Err(e) = std::fs::create_dir_all(out) {
+        eprintln!("error: cannot create {}: {e}", out.display());
+        return 2;
+    }
+    let mut doc = serde_yaml::Mapping::new();
+    doc.insert("version".into(), 1.into());
+    doc.insert("description".into(), format!("generated from {} by granrepro simulate (CD)", scene.display()).into());
+    doc.insert("stages".into(), serde_yaml::Value::Sequence(stages));
+    let pfile = out.join("pipeline.yaml");
+    if let Err(e) = std::fs::write(&pfile, serde_yaml::to_string(&serde_yaml::Value::Mapping(doc)).unwrap_or_default()) {
+        eprintln!("error: cannot write {}: {e}", pfile.display());
+        return 2;
+    }
+    let p = match load(&pfile, "quick", &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}\n  note: generated from {}", scene.display());
+            return 2;
+        }
+    };
+    match crate::pipeline::run::run(&p, &Project::new(out), &RunOptions { jobs: 1, quiet, ..Default::default() }) {
+        Ok(s) if !s.failed() => {
+            println!("outputs in {}", out.join("reports").join("quick").display());
+            0
+        }
+        Ok(s) => {
+            for r in &s.stages {
+                if let crate::pipeline::Outcome::Failed(m) = &r.outcome {
+                    eprintln!("error: {}: {m}", r.id);
+                }
+            }
+            1
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}

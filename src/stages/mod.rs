@@ -121,6 +121,7 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         dem_stages::PILE_KIND,
         cd_stages::SHEAR_KIND,
         cd_stages::SHEAR_FIGURE_KIND,
+        cd_stages::WP_KIND,
         mpm_stages::GEOSTATIC_KIND,
         mpm_stages::COLLAPSE_KIND,
         mpm_stages::WP_KIND,
