@@ -157,8 +157,8 @@ pub fn settled_deposit(spec: &DropSpec, params: &CdParams, time: Real) -> Result
 /// Result of a pile impact.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ImpactResult {
-    /// Normalised run-out (L_f − L_0)/L_0, L_f the 99th percentile of x + r (a few ejected
-    /// grains do not count), L_0 the box width.
+    /// Normalised run-out (L_f − L_0)/L_0, L_f the 95th percentile of x + r (the few
+    /// grains ejected ahead of a 200-grain pile do not count), L_0 the box width.
     pub runout: Real,
     /// Energy dissipated by contacts over the run [J/m].
     pub dissipated: Real,
@@ -190,7 +190,7 @@ pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0:
     let st = &w.state;
     let mut fr: Vec<Real> = (0..st.len()).map(|i| st.x[i] + st.r[i]).collect();
     fr.sort_by(|a, b| a.total_cmp(b));
-    let lf = fr[((0.99 * fr.len() as Real) as usize).min(fr.len() - 1)];
+    let lf = fr[((0.95 * fr.len() as Real) as usize).min(fr.len() - 1)];
     let e = w.energies();
     Ok(ImpactResult { runout: (lf - width) / width, dissipated: w.ledger.dissipated(), ek0, ek_final: e.ek + e.erot, stats: w.stats, wall_s })
 }
