@@ -65,3 +65,17 @@ fn unconverged_steps_are_counted_not_hidden() {
     assert!(r.stats.unconverged > 100, "a 3-sweep cap cannot converge a settling pile: {} unconverged", r.stats.unconverged);
     assert!(r.stats.max_residual > p.residual_tolerance);
 }
+
+#[test]
+fn every_step_can_be_logged_with_its_iterations_and_residual() {
+    let spec = DropSpec { ncol: 4, nrow: 3, scale: 1e-3, seed: 2 };
+    let (s, walls) = spec.build(2600.0);
+    let mut w = World::new(CdParams { dt: 4e-5, ..CdParams::default() }, s, walls, None).unwrap();
+    w.log = Some(Vec::new());
+    w.run(300).unwrap();
+    let log = w.log.as_ref().unwrap();
+    assert_eq!(log.len(), 300);
+    assert_eq!(log.iter().map(|i| i.iterations as u64).sum::<u64>(), w.stats.iterations);
+    assert_eq!(log.iter().filter(|i| !i.converged).count() as u64, w.stats.unconverged);
+    assert!(log.iter().all(|i| i.residual.is_finite()));
+}

@@ -107,6 +107,9 @@ pub struct World {
     pub ledger: Ledger,
     /// Energy watchdog on (off for drivers that inject energy by design).
     pub energy_check: bool,
+    /// Per-step record (iterations, residual, contacts) when `Some` (off by default: the
+    /// run counters in `stats` always hold the totals, maxima and unconverged count).
+    pub log: Option<Vec<StepInfo>>,
     e0: Real,
     ek_max: Real,
     w_abs: Real,
@@ -164,7 +167,7 @@ impl World {
             contacts: Contacts::default(),
             reaction: vec![[0.0; 3]; nb],
             t: 0.0, step_count: 0, last: StepInfo::default(), stats: Stats::default(), timers: Timers::default(),
-            ledger: Ledger::default(), energy_check: true, e0: 0.0, ek_max: 0.0, w_abs: 0.0,
+            ledger: Ledger::default(), energy_check: true, log: None, e0: 0.0, ek_max: 0.0, w_abs: 0.0,
             alert, d_min, skin,
             neighbors: NeighborList::default(),
             vprev: vec![[0.0; 3]; nb], vfree: vec![[0.0; 3]; nb],
@@ -242,6 +245,9 @@ impl World {
         s.max_iterations = s.max_iterations.max(info.iterations);
         s.max_residual = s.max_residual.max(info.residual);
         self.last = info;
+        if let Some(l) = self.log.as_mut() {
+            l.push(info);
+        }
         self.step_count += 1;
         self.t += self.params.dt;
         Ok(info)
