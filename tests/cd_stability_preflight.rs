@@ -79,3 +79,17 @@ fn every_step_can_be_logged_with_its_iterations_and_residual() {
     assert_eq!(log.iter().filter(|i| !i.converged).count() as u64, w.stats.unconverged);
     assert!(log.iter().all(|i| i.residual.is_finite()));
 }
+
+#[test]
+fn energy_rise_without_work_is_caught() {
+    // a grain kicked from outside the solver gains energy no force did work for
+    let spec = DropSpec { ncol: 4, nrow: 3, scale: 1e-3, seed: 2 };
+    let (s, walls) = spec.build(2600.0);
+    let mut w = World::new(CdParams { dt: 4e-5, ..CdParams::default() }, s, walls, None).unwrap();
+    w.run(200).unwrap();
+    w.bodies[5].v[1] += 0.3;
+    match w.step() {
+        Err(CdError::EnergyRise { energy, allowed, .. }) => assert!(energy > allowed),
+        other => panic!("expected EnergyRise, got {other:?}"),
+    }
+}
