@@ -5,13 +5,15 @@ use granrepro::cd::pile::DropSpec;
 use granrepro::cd::{CdParams, World};
 use granrepro::math::{Real, Vec2};
 
-fn run(e: Real, theta: Real, mu: Real, drive: bool) -> (granrepro::cd::Balance, Real) {
+fn run(e: Real, theta: Real, mu: Real, drive: bool) -> (granrepro::cd::Balance, Real) { run_r(e, theta, mu, drive, 0.0) }
+
+fn run_r(e: Real, theta: Real, mu: Real, drive: bool, mu_r: Real) -> (granrepro::cd::Balance, Real) {
     let spec = DropSpec { ncol: 8, nrow: 6, scale: 1e-3, seed: 9 };
     let (s, mut walls) = spec.build(2600.0);
     if drive {
         walls[2].velocity = Vec2::new(-0.05, 0.0); // right wall pushes in
     }
-    let p = CdParams { dt: 4e-5, theta, restitution_n: e, friction: mu, wall_friction: mu, ..CdParams::default() };
+    let p = CdParams { dt: 4e-5, theta, restitution_n: e, friction: mu, wall_friction: mu, rolling_friction: mu_r, ..CdParams::default() };
     let mut w = World::new(p, s, walls, None).unwrap();
     w.run(2500).unwrap();
     let m: Real = w.state.m.iter().sum();
@@ -39,6 +41,14 @@ fn ledger_closes_to_round_off() {
             assert_eq!(b.ledger.external_work, 0.0);
         }
     }
+}
+
+#[test]
+fn ledger_closes_with_rolling_resistance() {
+    let (b0, scale) = run_r(0.0, 0.5, 0.4, false, 0.0);
+    let (b, _) = run_r(0.0, 0.5, 0.4, false, 0.2);
+    assert!(b.residual.abs() < 1e-9 * scale, "residual {}", b.residual);
+    assert!(b.now.erot < b0.now.erot, "rolling resistance brakes spins: {} vs {}", b.now.erot, b0.now.erot);
 }
 
 #[test]

@@ -15,7 +15,9 @@ fn params() -> CdParams {
 
 /// One disk resting on an incline of angle `deg` (wall through the origin), released at
 /// rest; returns (down-slope acceleration, slip velocity at the contact point at the end).
-fn incline(deg: Real, mu: Real, spin: bool) -> (Real, Real) {
+fn incline(deg: Real, mu: Real, spin: bool) -> (Real, Real) { incline_r(deg, mu, spin, 0.0) }
+
+fn incline_r(deg: Real, mu: Real, spin: bool, mu_r: Real) -> (Real, Real) {
     let th = deg.to_radians();
     let n = Vec2::new(-th.sin(), th.cos());
     let down = Vec2::new(-th.cos(), -th.sin());
@@ -25,7 +27,7 @@ fn incline(deg: Real, mu: Real, spin: bool) -> (Real, Real) {
     if !spin {
         s.inv_i[0] = 0.0; // a sliding block: rotation locked
     }
-    let p = CdParams { friction: mu, wall_friction: mu, ..params() };
+    let p = CdParams { friction: mu, wall_friction: mu, rolling_friction: mu_r, ..params() };
     let mut w = World::new(p, s, vec![Wall::new("incline", Vec2::zeros(), n)], None).unwrap();
     let steps = 200;
     w.run(steps).unwrap();
@@ -70,6 +72,24 @@ fn disk_rolls_below_atan_3mu_and_slides_above() {
         let (a, slip) = incline(deg, mu, true);
         assert!((a - G * (th.sin() - mu * th.cos())).abs() < 1e-6 * G, "{deg}°: sliding a = {a}");
         assert!(slip > 1e-3, "{deg}°: must slip, slip = {slip}");
+    }
+}
+
+#[test]
+fn rolling_resistance_holds_a_disk_below_atan_mu_r_and_brakes_its_rolling_above() {
+    // moment balance F r ≤ μ_r r N: at rest while tanθ ≤ μ_r; above, rolling without slip
+    // with a = ⅔ g (sinθ − μ_r cosθ) (μ = 0.8 keeps it from sliding)
+    let (mu, mu_r) = (0.8, 0.1);
+    for deg in [2.0, 5.0] {
+        let (a, _) = incline_r(deg, mu, true, mu_r);
+        assert!(a.abs() < 1e-9, "{deg}°: held by rolling resistance, a = {a}");
+    }
+    for deg in [10.0, 20.0] {
+        let th = (deg as Real).to_radians();
+        let (a, slip) = incline_r(deg, mu, true, mu_r);
+        let exact = 2.0 / 3.0 * G * (th.sin() - mu_r * th.cos());
+        assert!((a - exact).abs() < 1e-6 * G, "{deg}°: a = {a}, expected {exact}");
+        assert!(slip.abs() < 1e-9, "rolls without slip: {slip}");
     }
 }
 

@@ -50,6 +50,11 @@ pub struct Contacts {
     pub dmin: Vec<Real>,
     /// Candidate pairs within the alert distance this step (active or not).
     pub candidates: usize,
+    /// Rolling moment impulse M_r of each row [N·s] (used only with rolling resistance).
+    pub mr: Vec<Real>,
+    /// Rolling radius r_eff of each row [m].
+    pub r_eff: Vec<Real>,
+    pub(crate) old_mr: Vec<Real>,
     // previous step's impulses by key (warm start)
     pub(crate) old_key: Vec<u64>,
     pub(crate) old_p: Vec<[Real; 2]>,
@@ -70,6 +75,9 @@ impl Contacts {
         self.old_p.clear();
         self.old_key.extend_from_slice(&self.key);
         self.old_p.extend(self.rows.iter().map(|r| r.p));
+        std::mem::swap(&mut self.old_mr, &mut self.mr);
+        self.mr.clear();
+        self.r_eff.clear();
         self.rows.clear();
         self.key.clear();
         self.gap.clear();
@@ -88,6 +96,9 @@ impl Contacts {
                 std::cmp::Ordering::Greater => b += 1,
                 std::cmp::Ordering::Equal => {
                     self.rows[b].p = self.old_p[a];
+                    if let Some(&m) = self.old_mr.get(a) {
+                        self.mr[b] = m;
+                    }
                     a += 1;
                     b += 1;
                 }
@@ -131,5 +142,7 @@ impl Contacts {
         self.gap.push(gap);
         self.um.push(um);
         self.dmin.push(dmin);
+        self.mr.push(0.0);
+        self.r_eff.push(if ra > 0.0 && rb > 0.0 { ra * rb / (ra + rb) } else { ra.max(rb) });
     }
 }

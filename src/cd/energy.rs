@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 pub struct Ledger {
     /// Normal impulses: −Σ P_n ū_n (impacts; Moreau's restitution sets how much).
     pub collisional: Real,
-    /// Tangential impulses: −Σ P_t ū_t (Coulomb sliding).
+    /// Tangential impulses −Σ P_t ū_t (Coulomb sliding) and rolling moments −Σ M_r ω̄_rel.
     pub frictional: Real,
     /// θ-scheme numerical damping h(θ − ½)F·(v⁺ − v⁻).
     pub numerical: Real,

@@ -21,7 +21,8 @@
 //! Delassus, warm start), `solver` (NLGS), `preflight`, `energy`, `world` (the step);
 //! drivers: `shear` (periodic shear → μ(I)), `pile` (deposit, impact, work-precision),
 //! `bench`. Grain state and the Verlet cell list are the DEM's ([`crate::dem::State`],
-//! [`crate::dem::neighbors`]). Rolling resistance is not implemented yet (follow-up).
+//! [`crate::dem::neighbors`]). Rolling resistance (|M_r| ≤ μ_r r_eff P_n) is optional and off
+//! by default.
 
 pub mod params;
 pub mod error;

@@ -35,6 +35,11 @@ pub struct CdParams {
     pub restitution_n: Real,
     /// Tangential restitution ε_t. Baseline 0 (same reason).
     pub restitution_t: Real,
+    /// Rolling resistance μ_r (dimensionless): the rolling moment impulse of a contact obeys
+    /// |M_r| ≤ μ_r r_eff P_n, r_eff = r_a r_b/(r_a + r_b) (the grain radius against a
+    /// wall). 0 = off (default; none stated for the pile): the sweep then runs the plain
+    /// two-unknown loop, so the option costs nothing when off.
+    pub rolling_friction: Real,
     /// Alert distance as a fraction of the smallest grain diameter. Pairs closer than this
     /// are detected at the start of a step; the step is refused if a grain would move more
     /// than half of it (so no pair can close unseen). Default 0.1 d_min: with the c.5 step
@@ -79,6 +84,7 @@ impl Default for CdParams {
             wall_friction: 0.4,
             restitution_n: 0.0,
             restitution_t: 0.0,
+            rolling_friction: 0.0,
             alert_fraction: 0.1,
             tolerance: 1e-4,
             residual_tolerance: 1e-3,
@@ -103,6 +109,7 @@ impl CdParams {
         c.non_negative("wall_friction", self.wall_friction);
         c.in_closed("restitution_n", self.restitution_n, 0.0, 1.0);
         c.in_closed("restitution_t", self.restitution_t, 0.0, 1.0);
+        c.non_negative("rolling_friction", self.rolling_friction);
         c.in_open_closed("alert_fraction", self.alert_fraction, 0.0, 1.0);
         c.in_open("tolerance", self.tolerance, 0.0, 1.0);
         c.in_open("residual_tolerance", self.residual_tolerance, 0.0, 1.0);

@@ -138,9 +138,28 @@ pub fn project_cone(z: [Real; 2], mu: Real) -> [Real; 2] {
     [pn, mu * pn * z[1].signum()]
 }
 
+/// Apply a rolling moment impulse increment dM (+dM on b, −dM on a).
+#[inline(always)]
+pub fn apply_rolling(r: &Row, bodies: &mut [Body], dm: Real) {
+    let b = &mut bodies[r.b as usize];
+    b.v[2] += b.inv[2] * dm;
+    let a = &mut bodies[r.a as usize];
+    a.v[2] -= a.inv[2] * dm;
+}
+
 /// Run NLGS sweeps. On entry the bodies hold the free velocities plus the warm-start
-/// impulses of `rows` (already applied).
-pub fn gauss_seidel(rows: &mut [Row], bodies: &mut [Body], s: &Settings) -> SolveInfo {
+/// impulses of `rows` (already applied). With rolling resistance (`roll` = Some((M_r,
+/// r_eff, μ_r))), each contact solves its (P_n, P_t) block, then its rolling moment with
+/// P_n fixed, M_r = clamp(−(ω_rel − W_rr M_r)/W_rr, ±μ_r r_eff P_n), W_rr = 1/I_a + 1/I_b
+/// (block Gauss–Seidel within the contact; same fixed point).
+pub fn gauss_seidel(rows: &mut [Row], bodies: &mut [Body], s: &Settings, roll: Option<(&mut [Real], &[Real], Real)>) -> SolveInfo {
+    match roll {
+        None => sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
+        Some((mr, re, mu_r)) => sweeps::<true>(rows, bodies, s, mr, re, mu_r),
+    }
+}
+
+fn sweeps<const ROLL: bool>(rows: &mut [Row], bodies: &mut [Body], s: &Settings, mr: &mut [Real], re: &[Real], mu_r: Real) -> SolveInfo {
     let mut info = SolveInfo::default();
     if rows.is_empty() {
         info.converged = true;
@@ -149,7 +168,7 @@ pub fn gauss_seidel(rows: &mut [Row], bodies: &mut [Body], s: &Settings) -> Solv
     let omega = s.relaxation;
     for it in 1..=s.max_iterations {
         let (mut dsum, mut psum) = (0.0, 0.0);
-        for r in rows.iter_mut() {
+        for (k, r) in rows.iter_mut().enumerate() {
             let va = bodies[r.a as usize].v;
             let vb = bodies[r.b as usize].v;
             let u = relative_velocity(r, &va, &vb);
@@ -169,6 +188,22 @@ pub fn gauss_seidel(rows: &mut [Row], bodies: &mut [Body], s: &Settings) -> Solv
             }
             dsum += dp[0] * dp[0] + dp[1] * dp[1];
             psum += p[0] * p[0] + p[1] * p[1];
+            if ROLL {
+                let (ba, bb) = (&bodies[r.a as usize], &bodies[r.b as usize]);
+                let wrr = ba.inv[2] + bb.inv[2];
+                if wrr > 0.0 {
+                    let lim = mu_r * re[k] * r.p[0];
+                    let m = (mr[k] - (bb.v[2] - ba.v[2]) / wrr).clamp(-lim, lim);
+                    let dm = m - mr[k];
+                    if dm != 0.0 {
+                        apply_rolling(r, bodies, dm);
+                        mr[k] = m;
+                    }
+                    let (dmr, mrr) = (dm / re[k], m / re[k]);
+                    dsum += dmr * dmr;
+                    psum += mrr * mrr;
+                }
+            }
         }
         info.iterations = it;
         info.change = if psum > 0.0 { (dsum / psum).sqrt() } else if dsum > 0.0 { Real::INFINITY } else { 0.0 };

@@ -12,7 +12,7 @@ use crate::cd::energy::{Balance, Energies, Ledger};
 use crate::cd::error::CdError;
 use crate::cd::params::CdParams;
 use crate::cd::preflight::{check_motion, fastest};
-use crate::cd::solver::{Settings, SolveInfo, apply, gauss_seidel, relative_velocity};
+use crate::cd::solver::{Settings, SolveInfo, apply, apply_rolling, gauss_seidel, relative_velocity};
 use crate::dem::neighbors::NeighborList;
 use crate::dem::state::State;
 use crate::dem::walls::Wall;
@@ -353,13 +353,22 @@ impl World {
                 apply(r, &mut self.bodies, r.p);
             }
         }
+        if self.params.rolling_friction > 0.0 {
+            for (r, &m) in self.contacts.rows.iter().zip(self.contacts.mr.iter()) {
+                if m != 0.0 {
+                    apply_rolling(r, &mut self.bodies, m);
+                }
+            }
+        }
         Ok(())
     }
 
     fn gauss_seidel(&mut self) -> SolveInfo {
         let p = &self.params;
         let s = Settings { tolerance: p.tolerance, residual_tolerance: p.residual_tolerance, max_iterations: p.max_iterations, relaxation: p.relaxation };
-        gauss_seidel(&mut self.contacts.rows, &mut self.bodies, &s)
+        let c = &mut self.contacts;
+        let roll = (p.rolling_friction > 0.0).then_some((c.mr.as_mut_slice(), c.r_eff.as_slice(), p.rolling_friction));
+        gauss_seidel(&mut c.rows, &mut self.bodies, &s, roll)
     }
 
     /// Contact work split (collisional / frictional), reactions, θ-term, external work.
@@ -371,6 +380,19 @@ impl World {
             *r = [0.0; 3];
         }
         let (mut coll, mut fric) = (0.0, 0.0);
+        if self.params.rolling_friction > 0.0 {
+            for (k, r) in self.contacts.rows.iter().enumerate() {
+                let m = self.contacts.mr[k];
+                if m == 0.0 {
+                    continue;
+                }
+                let (a, b) = (r.a as usize, r.b as usize);
+                let wrel = 0.5 * (self.bodies[b].v[2] - self.bodies[a].v[2] + self.vprev[b][2] - self.vprev[a][2]);
+                fric -= m * wrel;
+                self.reaction[b][2] += m;
+                self.reaction[a][2] -= m;
+            }
+        }
         for (r, um) in self.contacts.rows.iter().zip(self.contacts.um.iter()) {
             let up = relative_velocity(r, &self.bodies[r.a as usize].v, &self.bodies[r.b as usize].v);
             coll -= r.p[0] * 0.5 * (up[0] + um[0]);
