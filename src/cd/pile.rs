@@ -160,6 +160,9 @@ pub struct ImpactResult {
     /// Normalised run-out (L_f − L_0)/L_0, L_f the 95th percentile of x + r (the few
     /// grains ejected ahead of a 200-grain pile do not count), L_0 the box width.
     pub runout: Real,
+    /// Shift of the centre of mass along x over the run, / L_0: an integral measure that a
+    /// few grains rolling away (disks roll freely on a flat floor) cannot dominate.
+    pub com_shift: Real,
     /// Energy dissipated by contacts over the run [J/m].
     pub dissipated: Real,
     /// Kinetic energy given at t = 0 [J/m].
@@ -181,6 +184,8 @@ pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0:
         s.vx[i] = v0 * (y_max - s.y[i]) / y_max;
     }
     let walls: Vec<Wall> = walls.iter().filter(|w| w.name != "right").cloned().collect();
+    let com = |s: &State| s.x.iter().zip(&s.m).map(|(x, m)| x * m).sum::<Real>() / s.m.iter().sum::<Real>();
+    let x0 = com(&s);
     let mut w = World::new(params.clone(), s, walls, None)?;
     let ek0 = w.energies().ek;
     let t0 = Instant::now();
@@ -192,5 +197,5 @@ pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0:
     fr.sort_by(|a, b| a.total_cmp(b));
     let lf = fr[((0.95 * fr.len() as Real) as usize).min(fr.len() - 1)];
     let e = w.energies();
-    Ok(ImpactResult { runout: (lf - width) / width, dissipated: w.ledger.dissipated(), ek0, ek_final: e.ek + e.erot, stats: w.stats, wall_s })
+    Ok(ImpactResult { runout: (lf - width) / width, com_shift: (com(&w.state) - x0) / width, dissipated: w.ledger.dissipated(), ek0, ek_final: e.ek + e.erot, stats: w.stats, wall_s })
 }
