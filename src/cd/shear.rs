@@ -54,13 +54,17 @@ pub struct ShearCdParams {
     /// separation cannot slam the plate into the sample; at large I (small h) the plate
     /// keeps the layer's own mass and follows dilation quickly.
     pub plate_drift: Real,
+    /// Fit μ = μ_min + b I over the points with I ≤ this. 0.1: above it μ(I) bends toward
+    /// its saturation value (the Jop form μ_s + (μ_2 − μ_s)/(I_0/I + 1)), so a straight line
+    /// through I = 0.3 would tilt and lift μ_min.
+    pub fit_max_inertial_number: Real,
     /// Seed of the lattice shuffle.
     pub seed: u64,
 }
 
 impl Default for ShearCdParams {
     fn default() -> Self {
-        ShearCdParams { inertial_numbers: vec![1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3], pressure: 1e3, strain: 3.0, average_from: 0.5, width: 30.0, layer_pitch: 1.15, courant: 0.02, v_floor: 0.1, compaction_tp: 400.0, plate_drift: 0.005, seed: 5 }
+        ShearCdParams { inertial_numbers: vec![1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3], pressure: 1e3, strain: 3.0, average_from: 0.5, width: 30.0, layer_pitch: 1.15, courant: 0.02, v_floor: 0.1, compaction_tp: 400.0, plate_drift: 0.005, fit_max_inertial_number: 0.1, seed: 5 }
     }
 }
 
@@ -349,8 +353,10 @@ pub fn shear_test(radii: &[Real], params: &CdParams, sp: &ShearCdParams) -> Resu
         .par_iter()
         .map(|&i| shear_point(&cell, i, sp, rho, d_min))
         .collect::<Result<Vec<_>, _>>()?;
-    let xs: Vec<Real> = points.iter().map(|q| q.inertial_number).collect();
-    let ys: Vec<Real> = points.iter().map(|q| q.mu).collect();
+    let fit: Vec<&ShearCdPoint> = points.iter().filter(|q| q.inertial_number <= sp.fit_max_inertial_number * 1.05).collect();
+    let fit = if fit.len() >= 2 { fit } else { points.iter().collect() };
+    let xs: Vec<Real> = fit.iter().map(|q| q.inertial_number).collect();
+    let ys: Vec<Real> = fit.iter().map(|q| q.mu).collect();
     let (mu_min, b, mu_min_se, b_se) = fit_linear(&xs, &ys);
     Ok(ShearCdResult { points, mu_min, b, mu_min_se, b_se, grains: radii.len(), d_mean: cell.d_mean, compaction_packing })
 }

@@ -51,6 +51,7 @@ impl Validate for ShearStageParams {
         c.positive("shear.v_floor", s.v_floor);
         c.positive("shear.compaction_tp", s.compaction_tp);
         c.positive("shear.plate_drift", s.plate_drift);
+        c.positive("shear.fit_max_inertial_number", s.fit_max_inertial_number);
         c.check(self.grains >= 20, "grains", self.grains, "≥ 20");
         c.issues
     }
@@ -166,6 +167,7 @@ fn run_shear_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
     let (i, mu, se) = (col_f64(&df, "inertial_number")?, col_f64(&df, "mu")?, col_f64(&df, "mu_se")?);
     let (mu_min, b) = (input.scalar("mu_min")?, input.scalar("b")?);
     let mu_min_se = input.scalar("mu_min_se").unwrap_or(f64::NAN);
+    let i_fit = input.params.pointer("/shear/fit_max_inertial_number").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
     let mut out = Output::default();
     out.table("table", frame(vec![("inertial_number", i.clone()), ("mu", mu.clone()), ("mu_se", se.clone())])?);
     out.scalar("mu_min", mu_min).scalar("b", b).scalar("mu_min_se", mu_min_se);
@@ -190,7 +192,7 @@ fn run_shear_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
         series: vec![
             Series::new("CD, time-averaged steady shear", Style::Points, i.iter().cloned().zip(mu.iter().cloned()).collect(), 0),
             Series::new("± standard error (8 blocks)", Style::Points, err_lo.into_iter().chain(err_hi).collect(), 5),
-            Series::new(format!("fit: μ = {mu_min:.3} + {b:.2} I"), Style::Dashed, grid.iter().map(|&x| (x, mu_min + b * x)).collect(), 1),
+            Series::new(format!("fit (I ≤ {i_fit}): μ = {mu_min:.3} + {b:.2} I"), Style::Dashed, grid.iter().map(|&x| (x, mu_min + b * x)).collect(), 1),
             Series::new(format!("stated: μ* = {}", p.paper_mu), Style::Dashed, vec![(grid[0], p.paper_mu), (grid[40], p.paper_mu)], 7),
         ],
         ..Default::default()
