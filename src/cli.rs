@@ -54,6 +54,8 @@ pub enum BenchEngine {
     Dem,
     /// 40,000-point a = 1 MPM column, 16 PPC, 2 mm cells, Mohr–Coulomb.
     Mpm,
+    /// CD deposit of the Siconos reference script (25 × 20 and 40 × 25 disks, h = 2e-3 s).
+    Cd,
 }
 
 /// Subcommands.
@@ -124,7 +126,8 @@ pub enum Cmd {
         #[arg(long = "set")]
         sets: Vec<String>,
     },
-    /// Run one ad-hoc DEM column scene (psd + column + run sections) outside the pipeline.
+    /// Run one ad-hoc scene outside the pipeline: a DEM column (psd + column + run sections)
+    /// or, with `engine: cd`, a CD shear cell or pile.
     Simulate {
         /// Scene file (YAML; see docs/pipeline.md).
         scene: PathBuf,
@@ -371,6 +374,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
+        Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
         Cmd::Bench { engine, steps } => bench(engine, steps),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
@@ -447,6 +451,31 @@ fn bench(engine: BenchEngine, steps: Option<u64>) -> i32 {
                         ),
                         Err(e) => {
                             eprintln!("error: bench dem: {e}");
+                            return 1;
+                        }
+                    }
+                }
+            }
+            0
+        }
+        BenchEngine::Cd => {
+            let steps = steps.unwrap_or(2000);
+            for (ncol, nrow) in [(25, 20), (40, 25)] {
+                for &t in &threads {
+                    match crate::cd::bench::run(ncol, nrow, t, steps) {
+                        Ok(r) => println!(
+                            "{}",
+                            serde_json::json!({
+                                "bench": "cd-pile", "case": r.case, "threads": r.threads, "particles": r.particles,
+                                "contacts": r.contacts, "contacts_last": r.contacts_last, "steps": r.steps,
+                                "iterations": r.iterations, "wall_s": r.wall_s, "contact_iterations_per_s": r.contact_iterations_per_s,
+                                "unconverged": r.unconverged, "max_residual": r.max_residual,
+                                "packing_fraction": r.packing_fraction, "ke_over_mgd": r.ke_over_mgd,
+                                "detect_s": r.timers.detect, "solve_s": r.timers.solve, "update_s": r.timers.update,
+                            })
+                        ),
+                        Err(e) => {
+                            eprintln!("error: bench cd: {e}");
                             return 1;
                         }
                     }

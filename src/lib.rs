@@ -14,6 +14,7 @@ pub mod fit;
 pub mod math;
 pub mod mpm;
 pub mod dem;
+pub mod cd;
 pub mod pipeline;
 pub mod report;
 pub mod sample;

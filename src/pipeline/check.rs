@@ -100,7 +100,9 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
     use Arity::*;
     Some(match kind {
         "psd" | "reference-laws" => vec![],
-        "psd-figure" | "dem-pile-prep" => vec![("psd", One)],
+        "psd-figure" | "dem-pile-prep" | "cd-shear" => vec![("psd", One)],
+        "cd-shear-figure" => vec![("shear", One)],
+        "cd-work-precision" => vec![],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],
         "dem-calibration-point" => vec![("psd", One), ("columns", Many)],

@@ -12,6 +12,7 @@ use crate::pipeline::context::{Output, StageCtx};
 use crate::validate::Issue;
 
 pub mod calib;
+pub mod cd_stages;
 pub mod dem_stages;
 pub mod fit_stage;
 pub mod laws;
@@ -121,6 +122,9 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         dem_stages::PILE_KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
+        cd_stages::SHEAR_KIND,
+        cd_stages::SHEAR_FIGURE_KIND,
+        cd_stages::WP_KIND,
         mpm_stages::GEOSTATIC_KIND,
         mpm_stages::COLLAPSE_KIND,
         mpm_stages::WP_KIND,
