@@ -196,6 +196,14 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
     })
 }
 
+/// Mean and sample standard deviation (0 for a single value).
+pub fn mean_std(v: &[Real]) -> (Real, Real) {
+    let n = v.len() as Real;
+    let m = v.iter().sum::<Real>() / n.max(1.0);
+    let s = if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<Real>() / (n - 1.0)).sqrt() } else { 0.0 };
+    (m, s)
+}
+
 /// One accuracy setting of the DEM work-precision sweep.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Variant {
@@ -252,23 +260,12 @@ pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, va
         let settle_wall_s = t0.elapsed().as_secs_f64();
         let runs: Vec<Result<CollapseResult, DemError>> = (0..members.max(1))
             .into_par_iter()
-            .map(|k| {
-                let mut c = settled.clone();
-                if k > 0 {
-                    let mut rng = crate::dem::prep::SplitMix64(seed.wrapping_mul(0x9E37_79B9).wrapping_add(k as u64));
-                    for i in 0..c.state.len() {
-                        c.state.x[i] += perturbation * (2.0 * rng.next_f64() - 1.0);
-                        c.state.y[i] += perturbation * (2.0 * rng.next_f64() - 1.0);
-                    }
-                }
-                collapse(&c, &p, cp)
-            })
+            .map(|k| collapse(&settled.perturbed(k, perturbation, seed), &p, cp))
             .collect();
         let runs = runs.into_iter().collect::<Result<Vec<_>, _>>()?;
         let delta_l: Vec<Real> = runs.iter().map(|r| r.delta_l()).collect();
         let n = delta_l.len() as Real;
-        let mean = delta_l.iter().sum::<Real>() / n;
-        let spread = if delta_l.len() > 1 { (delta_l.iter().map(|x| (x - mean) * (x - mean)).sum::<Real>() / (n - 1.0)).sqrt() } else { 0.0 };
+        let (mean, spread) = mean_std(&delta_l);
         let hf = runs.iter().map(|r| r.samples.last().map(|s| s.height / r.l0).unwrap_or(0.0)).sum::<Real>() / n;
         let (ref_mean, ref_spread, ref_n) = rows.first().map(|x| (x.mean, x.spread, x.delta_l.len() as Real)).unwrap_or((mean, spread, n));
         let error = if rows.is_empty() { 0.0 } else { (mean - ref_mean).abs() / ref_mean.abs().max(1e-12) };

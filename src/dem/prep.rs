@@ -255,6 +255,21 @@ fn finish_column(s: State, l0: Real, run: &DemParams, ratio: Real, max_time: Rea
 }
 
 impl Column {
+    /// Member `k` of an ensemble of starts: member 0 is this column, member k > 0 has every
+    /// grain moved by a uniform random offset of at most `amplitude` m in x and y (seeded
+    /// by `seed` and k). A run-out is chaotic: ensembles give its mean and spread.
+    pub fn perturbed(&self, k: usize, amplitude: Real, seed: u64) -> Column {
+        let mut c = self.clone();
+        if k > 0 {
+            let mut rng = SplitMix64(seed.wrapping_mul(0x9E37_79B9).wrapping_add(k as u64));
+            for i in 0..c.state.len() {
+                c.state.x[i] += amplitude * (2.0 * rng.next_f64() - 1.0);
+                c.state.y[i] += amplitude * (2.0 * rng.next_f64() - 1.0);
+            }
+        }
+        c
+    }
+
     /// This column re-settled behind its gate with other solver parameters (another
     /// contact stiffness or step): the overlap energy the change releases is drained by
     /// kinetic damping, then the column settles to (E_k + E_rot)/E_p < `ratio`. Contact

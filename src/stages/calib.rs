@@ -17,8 +17,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
-use crate::dem::column::{CollapseParams, CollapseResult, collapse};
-use crate::dem::prep::{Column, SplitMix64};
+use crate::dem::column::{CollapseParams, CollapseResult, collapse, mean_std};
+use crate::dem::prep::Column;
 use crate::dem::shear::{ShearParams, shear_test};
 use crate::dem::{DemParams, RollingModel};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
@@ -57,27 +57,10 @@ impl Ensemble {
 pub fn collapse_ensemble(col: &Column, run: &DemParams, cp: &CollapseParams, ens: &Ensemble) -> anyhow::Result<Vec<CollapseResult>> {
     (0..ens.members)
         .into_par_iter()
-        .map(|k| {
-            let mut c = col.clone();
-            if k > 0 {
-                let mut rng = SplitMix64(ens.seed.wrapping_mul(0x9E37_79B9).wrapping_add(k as u64));
-                for i in 0..c.state.len() {
-                    c.state.x[i] += ens.perturbation_m * (2.0 * rng.next_f64() - 1.0);
-                    c.state.y[i] += ens.perturbation_m * (2.0 * rng.next_f64() - 1.0);
-                }
-            }
-            Ok(collapse(&c, run, cp)?)
-        })
+        .map(|k| Ok(collapse(&col.perturbed(k, ens.perturbation_m, ens.seed), run, cp)?))
         .collect()
 }
 
-/// Mean and sample standard deviation.
-pub fn mean_std(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n.max(1.0);
-    let s = if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
-    (m, s)
-}
 
 /// Parameters of a `dem-calibration-point` stage.
 #[derive(Debug, Clone, Serialize, Deserialize)]
