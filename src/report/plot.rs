@@ -157,6 +157,8 @@ impl Chart {
                         .configure_mesh()
                         .x_desc(self.x_label.as_str())
                         .y_desc(self.y_label.as_str())
+                        .x_label_formatter(&|v| tick(*v))
+                        .y_label_formatter(&|v| tick(*v))
                         .light_line_style(RGBColor(235, 235, 235))
                         .draw()
                         .map_err(|e| anyhow::anyhow!("{e:?}"))?;
@@ -224,6 +226,37 @@ impl Chart {
             root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
         }
         Ok(svg)
+    }
+}
+
+/// An axis tick label: at most 3 significant digits, no binary-fraction noise (a log
+/// axis otherwise prints "0.30000000000000004"), exponent form outside [1e-3, 1e5).
+pub fn tick(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let a = v.abs();
+    if !(1e-3..1e5).contains(&a) {
+        return format!("{v:.2e}").replace(".00e", "e").replace("0e", "e");
+    }
+    let s = format!("{:.*}", (2 - a.log10().floor() as i32).max(0) as usize, v);
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tick;
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(tick(0.30000000000000004), "0.3");
+        assert_eq!(tick(0.1 + 0.2), "0.3");
+        assert_eq!(tick(2.5), "2.5");
+        assert_eq!(tick(150.0), "150");
+        assert_eq!(tick(12345.0), "12345");
+        assert_eq!(tick(0.0123), "0.0123");
+        assert_eq!(tick(-0.5), "-0.5");
+        assert!(tick(1e-5).contains('e'), "{}", tick(1e-5));
     }
 }
 
