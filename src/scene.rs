@@ -176,12 +176,19 @@ pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
             return 2;
         }
     };
-    let doc = serde_yaml::to_string(&scene_pipeline(scene, &sf)).unwrap_or_default();
+    run_generated(scene, &text, &scene_pipeline(scene, &sf), out, quiet)
+}
+
+/// Validate the pipeline generated from a scene file (problems reported against the scene
+/// file's lines), check that `out` is usable, and only then write it and run. Shared by
+/// every engine's `simulate` (DEM columns here, CD scenes in `stages::cd_stages`).
+pub fn run_generated(scene: &Path, text: &str, generated: &serde_yaml::Value, out: &Path, quiet: bool) -> i32 {
+    let doc = serde_yaml::to_string(generated).unwrap_or_default();
     let pfile = out.join("pipeline.yaml");
     let p = match load_text(&pfile, &doc, out, "quick", &[]) {
         Ok(p) => p,
         Err(d) => {
-            report_scene_problems(scene, &text, &d);
+            report_scene_problems(scene, text, &d);
             return 2;
         }
     };

@@ -35,6 +35,19 @@ fn simulate_refuses_a_non_empty_directory_it_did_not_make() {
     assert_eq!(read(t.pipeline()), SMALL);
 }
 
+/// The same for a CD scene: it was routed past the DEM's safe path and wrote (and ran)
+/// into any directory, the project's own included.
+#[test]
+fn cd_simulate_refuses_a_non_empty_directory_it_did_not_make() {
+    let t = TempProject::new(SMALL);
+    t.write("cd.yaml", "engine: cd\nscene: shear\npsd: { n: 50 }\ngrains: 20\n");
+    let (code, _, err) = t.cli(&["simulate", t.path().join("cd.yaml").to_str().unwrap(), "--out", t.path().to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("non-empty directory"), "{err}");
+    assert_eq!(read(t.pipeline()), SMALL, "the project's pipeline.yaml was overwritten");
+    assert!(!t.path().join(".granrepro").exists());
+}
+
 /// Finding 3: `clean --reports --pipeline missing.yaml` deleted a reports/ folder.
 #[test]
 fn clean_with_a_missing_pipeline_removes_nothing() {

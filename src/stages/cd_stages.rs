@@ -367,7 +367,6 @@ pub fn is_cd_scene(path: &std::path::Path) -> bool {
 /// cd-shear → cd-shear-figure, or one cd-work-precision stage) and run there, so the
 /// outputs are the stages' tables, figures and claims. Exit code 0 ok, 1 failed, 2 bad input.
 pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) -> i32 {
-    use crate::pipeline::{Project, RunOptions, load};
     let nonnull = |v: &serde_yaml::Value| if v.is_null() { serde_yaml::Value::Mapping(Default::default()) } else { v.clone() };
     let text = match std::fs::read_to_string(scene) {
         Ok(t) => t,
@@ -430,42 +429,10 @@ pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) 
         eprintln!("error: {}: engine `{}` is not `cd`", scene.display(), sf.engine);
         return 2;
     }
-    if let Err(e) = std::fs::create_dir_all(out) {
-        eprintln!("error: cannot create {}: {e}", out.display());
-        return 2;
-    }
     let mut doc = serde_yaml::Mapping::new();
     doc.insert("version".into(), 1.into());
     doc.insert("description".into(), format!("generated from {} by granrepro simulate (CD)", scene.display()).into());
     doc.insert("stages".into(), serde_yaml::Value::Sequence(stages));
-    let pfile = out.join("pipeline.yaml");
-    if let Err(e) = std::fs::write(&pfile, serde_yaml::to_string(&serde_yaml::Value::Mapping(doc)).unwrap_or_default()) {
-        eprintln!("error: cannot write {}: {e}", pfile.display());
-        return 2;
-    }
-    let p = match load(&pfile, "quick", &[]) {
-        Ok(p) => p,
-        Err(d) => {
-            eprintln!("{d}\n  note: generated from {}", scene.display());
-            return 2;
-        }
-    };
-    match crate::pipeline::run::run(&p, &Project::new(out), &RunOptions { jobs: 1, quiet, ..Default::default() }) {
-        Ok(s) if !s.failed() => {
-            println!("outputs in {}", out.join("reports").join("quick").display());
-            0
-        }
-        Ok(s) => {
-            for r in &s.stages {
-                if let crate::pipeline::Outcome::Failed(m) = &r.outcome {
-                    eprintln!("error: {}: {m}", r.id);
-                }
-            }
-            1
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            2
-        }
-    }
+    // validated before anything is written; `out` must be new, empty or our own output
+    crate::scene::run_generated(scene, &text, &serde_yaml::Value::Mapping(doc), out, quiet)
 }
