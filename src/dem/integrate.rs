@@ -160,11 +160,10 @@ impl World {
             }
         }
         let n = w.len();
-        if n > 0 {
-            for (hk, d) in self.wroll.iter().enumerate() {
-                if d.c > 0.0 {
-                    pair_impulse::<L>(d, h, w, inv_i, inertia, hk % n, None, &mut led);
-                }
+        // grain–wall contacts of the scene's walls only (wroll holds MAX_WALLS slots)
+        for (hk, d) in self.wroll[..self.walls.len().min(crate::dem::world::MAX_WALLS) * n].iter().enumerate() {
+            if d.c > 0.0 {
+                pair_impulse::<L>(d, h, w, inv_i, inertia, hk % n, None, &mut led);
             }
         }
         if L {
