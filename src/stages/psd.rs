@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
-use crate::report::plot::{Chart, Series, Style, footer};
+use crate::report::plot::{Chart, Series, Style, footer, tick};
 use crate::sample::psd::{BetaGrading, ks_distance, stats, volume_cdf_of_sample};
 use crate::validate::{Checker, Issue};
 
@@ -157,7 +157,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
         x_range: Some((psd.d_min_mm - 0.02, psd.d_max_mm + 0.02)),
         y_range: Some((0.0, 100.0)),
         series: vec![
-            Series::new(format!("target: Graded a={}, b={}, r={} (cumulative β by volume)", psd.beta_a, psd.beta_b, psd.d_max_mm / psd.d_min_mm), Style::Line, dd.iter().zip(&target).map(|(x, y)| (x * 1e3, *y)).collect(), 7),
+            Series::new(format!("target: Graded a={}, b={}, r={} (cumulative β by volume)", tick(psd.beta_a), tick(psd.beta_b), tick(psd.d_max_mm / psd.d_min_mm)), Style::Line, dd.iter().zip(&target).map(|(x, y)| (x * 1e3, *y)).collect(), 7),
             Series::new(format!("sampled grains (every {step}th shown)"), Style::Points, grains, 0),
         ],
         ..Default::default()
@@ -169,7 +169,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `psd-figure`.
 pub const FIGURE_KIND: Kind = Kind {
     name: "psd-figure",
-    version: 2,
+    version: 3,
     about: "fig4-01b: cumulative % finer of sampled grains vs the target grading",
     params: typed::<PsdFigureParams>,
     run: run_psd_figure,
