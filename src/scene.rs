@@ -135,18 +135,7 @@ fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
     coll.insert("stiffness_factor".into(), sf.stiffness_factor.into());
     coll.insert("run".into(), nonnull(&sf.run));
     coll.insert("vtk".into(), sf.vtk.into());
-    let mk = |id: &str, kind: &str, params: serde_yaml::Value, inputs: Option<(&str, &str)>| {
-        let mut m = serde_yaml::Mapping::new();
-        m.insert("id".into(), id.into());
-        m.insert("kind".into(), kind.into());
-        m.insert("params".into(), params);
-        if let Some((role, id)) = inputs {
-            let mut i = serde_yaml::Mapping::new();
-            i.insert(role.into(), id.into());
-            m.insert("inputs".into(), serde_yaml::Value::Mapping(i));
-        }
-        serde_yaml::Value::Mapping(m)
-    };
+    let mk = stage_entry;
     let stages = vec![
         mk("psd", "psd", nonnull(&sf.psd), None),
         mk("column", "dem-column-prep", prep, Some(("psd", "psd"))),
@@ -177,6 +166,21 @@ pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
         }
     };
     run_generated(scene, &text, &scene_pipeline(scene, &sf), out, quiet)
+}
+
+/// One stage entry of a generated pipeline: `id`, `kind`, `params` and at most one input
+/// (role, stage id). Used by every engine's `simulate`.
+pub fn stage_entry(id: &str, kind: &str, params: serde_yaml::Value, inputs: Option<(&str, &str)>) -> serde_yaml::Value {
+    let mut m = serde_yaml::Mapping::new();
+    m.insert("id".into(), id.into());
+    m.insert("kind".into(), kind.into());
+    m.insert("params".into(), params);
+    if let Some((role, id)) = inputs {
+        let mut i = serde_yaml::Mapping::new();
+        i.insert(role.into(), id.into());
+        m.insert("inputs".into(), serde_yaml::Value::Mapping(i));
+    }
+    serde_yaml::Value::Mapping(m)
 }
 
 /// Validate the pipeline generated from a scene file (problems reported against the scene

@@ -92,15 +92,7 @@ impl World {
                     vy.set(a, vyn);
                     w.set(a, wn);
                     if DRIFT {
-                        let xa = x.get(a) + dt * vxn;
-                        let ya = y.get(a) + dt * vyn;
-                        x.set(a, xa);
-                        y.set(a, ya);
-                        th.set(a, th.get(a) + dt * wn);
-                        if have_x0 {
-                            let (dx, dy) = (xa - x0[a], ya - y0[a]);
-                            part.moved |= dx * dx + dy * dy > lim;
-                        }
+                        part.moved |= drift_one(a, dt, (vxn, vyn, wn), (x, y, th), have_x0.then_some((x0, y0)), lim);
                     }
                 }
             }
@@ -130,15 +122,7 @@ impl World {
             let mut part = Partial::default();
             for a in lo..hi {
                 unsafe {
-                    let xa = x.get(a) + dt * vx[a];
-                    let ya = y.get(a) + dt * vy[a];
-                    x.set(a, xa);
-                    y.set(a, ya);
-                    th.set(a, th.get(a) + dt * w[a]);
-                    if have_x0 {
-                        let (dx, dy) = (xa - x0[a], ya - y0[a]);
-                        part.moved |= dx * dx + dy * dy > lim;
-                    }
+                    part.moved |= drift_one(a, dt, (vx[a], vy[a], w[a]), (x, y, th), have_x0.then_some((x0, y0)), lim);
                 }
             }
             part
@@ -168,6 +152,29 @@ impl World {
         }
         if L {
             self.ledger += led;
+        }
+    }
+}
+
+/// Drift of grain `a`: x ← x + Δt v, θ ← θ + Δt ω; returns whether it moved more than
+/// √lim from its position at the last neighbour build (if known).
+///
+/// # Safety
+/// `a` is in bounds of the arrays behind `x`, `y`, `th`, and no other thread writes index `a`.
+#[inline(always)]
+unsafe fn drift_one(a: usize, dt: Real, (vx, vy, w): (Real, Real, Real), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
+    unsafe {
+        let xa = x.get(a) + dt * vx;
+        let ya = y.get(a) + dt * vy;
+        x.set(a, xa);
+        y.set(a, ya);
+        th.set(a, th.get(a) + dt * w);
+        match x0y0 {
+            Some((x0, y0)) => {
+                let (dx, dy) = (xa - x0[a], ya - y0[a]);
+                dx * dx + dy * dy > lim
+            }
+            None => false,
         }
     }
 }

@@ -383,18 +383,7 @@ pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) 
             return 2;
         }
     };
-    let mk = |id: &str, kind: &str, params: serde_yaml::Value, inputs: Option<(&str, &str)>| {
-        let mut m = serde_yaml::Mapping::new();
-        m.insert("id".into(), id.into());
-        m.insert("kind".into(), kind.into());
-        m.insert("params".into(), params);
-        if let Some((role, id)) = inputs {
-            let mut i = serde_yaml::Mapping::new();
-            i.insert(role.into(), id.into());
-            m.insert("inputs".into(), serde_yaml::Value::Mapping(i));
-        }
-        serde_yaml::Value::Mapping(m)
-    };
+    let mk = crate::scene::stage_entry;
     let stages = match sf.scene.as_str() {
         "shear" => {
             let mut sh = serde_yaml::Mapping::new();
