@@ -114,7 +114,7 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
         "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
         // Free role names, checked against the declaration in `check_roles`.
-        "plot" | "sweep-compare" => vec![],
+        "plot" | "sweep-compare" | "snapshot" => vec![],
         "power-law-fit" => {
             let overlays = params.get("overlay_laws").and_then(|o| o.as_array()).is_some_and(|a| !a.is_empty());
             vec![("data", Many), ("laws", if overlays { One } else { OptionalOne })]
@@ -128,6 +128,7 @@ pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) 
     let declared = match kind {
         "plot" => serde_json::from_value::<crate::stages::plot::PlotParams>(params.clone()).ok().map(|p| p.roles()),
         "sweep-compare" => serde_json::from_value::<crate::stages::compare::CompareParams>(params.clone()).ok().map(|p| p.roles()),
+        "snapshot" => serde_json::from_value::<crate::stages::snapshot::SnapParams>(params.clone()).ok().map(|p| p.roles()),
         _ => None,
     };
     if let Some(read) = declared {

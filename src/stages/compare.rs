@@ -44,6 +44,12 @@ pub struct Comparison {
     /// Pairing scalar.
     #[serde(default = "aspect")]
     pub pair_on: String,
+    /// Pair a member with the nearest member of `b` whose `pair_on` is within this
+    /// fraction of it: the realised aspect ratio of a trimmed deposit or a hexagonal lattice
+    /// differs from the nominal one by a few per cent (0.38 for a nominal 0.4), while the
+    /// sweep's neighbours are ≥ 25 % apart.
+    #[serde(default = "pair_tol")]
+    pub pair_tolerance: f64,
     /// Keep pairs with pair_on in [lo, hi].
     #[serde(default)]
     pub range: Option<[f64; 2]>,
@@ -59,6 +65,9 @@ pub struct Comparison {
 
 fn aspect() -> String {
     "a".into()
+}
+fn pair_tol() -> f64 {
+    0.1
 }
 
 /// Parameters of a `sweep-compare` stage.
@@ -91,6 +100,7 @@ impl Validate for CompareParams {
         for (i, q) in self.claims.iter().enumerate() {
             let k = |f: &str| format!("claims[{i}].{f}");
             c.check(q.a != q.b, &k("b"), &q.b, "a role other than `a`");
+            c.check(q.pair_tolerance.is_finite() && (0.0..0.5).contains(&q.pair_tolerance), &k("pair_tolerance"), q.pair_tolerance, "a fraction in [0, 0.5)");
             if let Some([lo, hi]) = q.range {
                 c.check(lo.is_finite() && hi.is_finite() && lo <= hi, &k("range"), format!("[{lo}, {hi}]"), "[lo, hi] with lo ≤ hi");
             }
@@ -121,7 +131,8 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             if q.range.is_some_and(|[lo, hi]| x < lo || x > hi) {
                 continue;
             }
-            if let Some(&(_, vb)) = sb.iter().find(|(xb, _)| (xb - x).abs() <= 1e-9 * x.abs().max(1.0)) {
+            let nearest = sb.iter().min_by(|p, q| (p.0 - x).abs().total_cmp(&(q.0 - x).abs()));
+            if let Some(&(_, vb)) = nearest.filter(|(xb, _)| (xb - x).abs() <= q.pair_tolerance * xb.abs().max(x.abs()) + 1e-12) {
                 ratios.push(va / vb);
                 cid.push(ci as f64);
                 xs.push(x);

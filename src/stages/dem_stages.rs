@@ -406,6 +406,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     let r = collapse(&col, &run, &p.run)?;
     let mut out = Output::default();
     out.table("table", collapse_table(&r)?);
+    out.table("snapshots", super::snapshot::dem_rows(&r.snapshots, r.tau_c)?);
     let s = &r.samples;
     let e0 = s.first().map(|v| v.ep).unwrap_or(1.0);
     let last = s.last().copied();
@@ -485,7 +486,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "dem-collapse",
-    version: 2,
+    version: 3,
     about: "DEM granular column collapse: L(t), H(t), energy ledger, until at rest",
     params: typed::<CollapseStageParams>,
     run: run_collapse_stage,

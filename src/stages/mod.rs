@@ -20,6 +20,7 @@ pub mod laws;
 pub mod mpm_stages;
 pub mod plot;
 pub mod psd;
+pub mod snapshot;
 pub mod tables;
 
 /// A parameter problem found by a kind's schema.
@@ -132,6 +133,7 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         mpm_stages::WP_KIND,
         plot::KIND,
         compare::KIND,
+        snapshot::KIND,
     ];
     kinds.into_iter().map(|k| (k.name, k)).collect()
 }

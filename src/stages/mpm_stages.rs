@@ -297,6 +297,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
     }
     out.table("table", series_table(&r, g)?);
+    out.table("snapshots", super::snapshot::mpm_rows(&r.snapshots, tau, p.mpm.half_width())?);
     let e0 = r.series.first().map(|s| s.e.potential).unwrap_or(1.0);
     let last = r.series.last().copied();
     // D10: t_f = when the front settles to within 0.5 d̄ of its final position.
@@ -368,7 +369,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "mpm-collapse",
-    version: 4,
+    version: 5,
     about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
     params: typed::<CollapseParams>,
     run: run_collapse_stage,
