@@ -87,7 +87,12 @@ pub fn write_markers(dir: &Path, profile: &str, summary: &RunSummary) -> std::io
 
 /// The run record of a stage under `reports/<profile>/`, when there is one.
 pub fn measured_from_record(report_dir: &Path, id: &str) -> Option<Measured> {
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(report_dir.join(format!("{id}.record.json"))).ok()?).ok()?;
+    measured_from_record_file(&report_dir.join(format!("{id}.record.json")))
+}
+
+/// Wall time and threads of a run record file.
+pub fn measured_from_record_file(path: &Path) -> Option<Measured> {
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
     Some(Measured { wall_s: v.get("wall_s")?.as_f64()?, threads: v.get("threads").and_then(|t| t.as_u64()).unwrap_or(1).max(1) as usize })
 }
 
