@@ -157,11 +157,12 @@ impl Estimate {
             s.push_str(&format!("overnight ({NIGHT_H} h): {} workers of {} cores.\n", self.workers_for_night(), self.threads()));
         } else {
             s.push_str(&format!(
-                "not overnight at {} threads per stage: the chain alone takes {chain_h:.1} h > {NIGHT_H} h (a stage runs on one worker;\n                 more threads per stage shorten it only as far as the engine scales). {} workers of {} cores finish\n                 everything in about the chain's time; {} would do the rest of the work in one night.\n",
+                "not overnight at {} threads per stage: the chain alone takes {chain_h:.1} h > {NIGHT_H} h (a stage runs on\n\
+                 one worker; more threads per stage shorten it only as far as the engine scales). {} workers of {}\n\
+                 cores finish everything in about the chain's time.\n",
                 self.threads(),
                 (wall_h / chain_h).ceil().max(1.0),
                 self.threads(),
-                self.workers_for_night()
             ));
         }
         let um = self.unmeasured();
