@@ -353,11 +353,9 @@ pub fn run_cli(cli: Cli) -> i32 {
                             }
                         }
                     }
-                    if let Some(dir) = &markers {
-                        if let Err(e) = crate::pipeline::export::write_markers(dir, &p.profile, &summary) {
-                            eprintln!("error: {e}");
-                            return 1;
-                        }
+                    if let Some(Err(e)) = markers.as_ref().map(|dir| crate::pipeline::export::write_markers(dir, &p.profile, &summary)) {
+                        eprintln!("error: {e}");
+                        return 1;
                     }
                     println!(
                         "{} ran, {} cached; reports in {}",

@@ -50,13 +50,17 @@ pub fn plan(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Vec<Plan
 pub fn to_json(p: &Pipeline, proj: &Project, stages: &[Planned]) -> Value {
     json!({
         "profile": p.profile,
-        "pipeline": p.path.display().to_string(),
-        "cache": proj.cache.root().display().to_string(),
+        "pipeline": abs(&p.path),
+        "cache": abs(proj.cache.root()),
         "stages": stages.iter().map(|s| json!({
             "id": s.id, "kind": s.kind, "key": s.key, "inputs": s.inputs,
             "cached": s.cached, "why": s.why,
         })).collect::<Vec<_>>(),
     })
+}
+
+fn abs(p: &std::path::Path) -> String {
+    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()).display().to_string()
 }
 
 /// The plan as text: one line per stage (order, state, id, key, inputs).
