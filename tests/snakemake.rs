@@ -126,6 +126,28 @@ fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     let said = format!("{}{}", String::from_utf8_lossy(&again.stdout), String::from_utf8_lossy(&again.stderr));
     assert!(again.status.success() && said.contains("Nothing to be done"), "{said}");
 
+    // A changed stage (psd-col's seed) is a new key, so a new marker: re-exported,
+    // Snakemake would run psd-col and its dependants, nothing else.
+    let psd = a.path().join("stages/psd-col.yaml");
+    let text = std::fs::read_to_string(&psd).unwrap();
+    assert!(text.contains("seed: 20150401"), "stages/psd-col.yaml changed: update this test");
+    std::fs::write(&psd, text.replace("seed: 20150401", "seed: 20150402")).unwrap();
+    let mut args = vec!["--cache", cache_s];
+    args.extend(stage_args(&["export", "snakemake"]));
+    let (code, changed, err) = granrepro(a.path(), &args);
+    assert_eq!(code, 0, "{err}");
+    std::fs::write(a.path().join("Snakefile.changed"), &changed).unwrap();
+    let dry = Command::new(&smk).current_dir(a.path()).args(["-s", "Snakefile.changed", "-j", "2", "--dry-run"]).output().unwrap();
+    let said = String::from_utf8_lossy(&dry.stdout).to_string() + &String::from_utf8_lossy(&dry.stderr);
+    assert!(dry.status.success(), "{said}");
+    for r in ["stage_psd_col", "stage_tab4_02", "stage_fig4_01b"] {
+        assert!(said.contains(&format!("rule {r}:")), "{r} should rerun:\n{said}");
+    }
+    for r in ["stage_laws", "stage_psd_shear"] {
+        assert!(!said.contains(&format!("rule {r}:")), "{r} should not rerun:\n{said}");
+    }
+    std::fs::write(&psd, text).unwrap();
+
     // `granrepro run` assembles reports/ from the shared cache without recomputing.
     std::fs::remove_dir_all(a.path().join("reports")).ok();
     let mut args = vec!["--cache", cache_s];
