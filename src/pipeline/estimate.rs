@@ -23,7 +23,7 @@
 //! takes longer in a bigger sample), memory bandwidth, parallel efficiency. Read the
 //! result as good to a factor of 2–3, not better.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
 use serde_json::{Value, json};
 
@@ -304,11 +304,6 @@ fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
         }
         _ => None,
     }
-}
-
-/// Per-family totals, for tests and the README.
-pub fn by_family(e: &Estimate) -> BTreeMap<String, f64> {
-    e.families().into_iter().map(|f| (f.0, f.4)).collect()
 }
 
 #[cfg(test)]
