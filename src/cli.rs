@@ -141,7 +141,8 @@ pub enum Cmd {
         /// Threads of a solver stage (stages measured under 1 s get 1).
         #[arg(long, default_value_t = 2, value_parser = parse_jobs)]
         threads: usize,
-        /// Memory request of every rule [MB] (run records do not measure memory).
+        /// Memory request [MB] of a rule whose stage no earlier worker measured (markers
+        /// record peak memory; run records do not).
         #[arg(long, default_value_t = 4000)]
         mem_mb: u64,
     },
@@ -574,6 +575,7 @@ fn export_snakemake(pipeline: &Path, proj: &Project, cache: Option<&Path>, stage
         cache: cache.map(Path::to_path_buf),
         threads,
         mem_mb,
+        peak_mb: plan.iter().filter_map(|s| Some((s.id.clone(), crate::pipeline::export::peak_from_markers(&proj.root.join(crate::pipeline::export::marker_dir(&p.profile)), &s.id)?))).collect(),
         default_runtime_min: 720,
         measured,
     };

@@ -137,6 +137,8 @@ fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     let (code, changed, err) = granrepro(a.path(), &args);
     assert_eq!(code, 0, "{err}");
     std::fs::write(a.path().join("Snakefile.changed"), &changed).unwrap();
+    // Memory requests now come from the peaks the workers recorded in their markers.
+    assert!(snakefile.contains("mem_mb=4000,") && !changed.contains("mem_mb=4000,"), "{changed}");
     let dry = Command::new(&smk).current_dir(a.path()).args(["-s", "Snakefile.changed", "-j", "2", "--dry-run"]).output().unwrap();
     let said = String::from_utf8_lossy(&dry.stdout).to_string() + &String::from_utf8_lossy(&dry.stderr);
     assert!(dry.status.success(), "{said}");

@@ -16,7 +16,9 @@
 //!
 //! **Threads and resources**: from the stage's run record (`reports/<profile>/<id>.record.json`)
 //! when there is one, else from the caller's estimate (the paper budget, see
-//! [`super::estimate`]), else stated defaults ([`ExportOptions`]).
+//! [`super::estimate`]), else stated defaults ([`ExportOptions`]). Run records hold no
+//! memory figure; markers do (the worker's peak resident memory), so memory requests
+//! come from an earlier worker's markers, else the default.
 
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -49,8 +51,10 @@ pub struct ExportOptions {
     pub cache: Option<PathBuf>,
     /// Threads of a stage without a record, and the cap for stages that have one.
     pub threads: usize,
-    /// Memory request of every rule [MB] (run records do not measure memory).
+    /// Memory request [MB] of a stage whose peak is not known.
     pub mem_mb: u64,
+    /// Peak memory [MB] of each stage measured by an earlier worker (its markers).
+    pub peak_mb: BTreeMap<String, f64>,
     /// Runtime request [min] of a stage with neither a record nor an estimate.
     pub default_runtime_min: u64,
     /// Measured or estimated wall time of each stage.
@@ -77,12 +81,31 @@ pub fn write_markers(dir: &Path, profile: &str, summary: &RunSummary) -> std::io
     let mut n = 0;
     for s in &summary.stages {
         if matches!(s.outcome, Outcome::Ran { .. } | Outcome::Cached) {
-            let body = serde_json::json!({ "stage": s.id, "key": s.key, "profile": profile });
+            let body = serde_json::json!({ "stage": s.id, "key": s.key, "profile": profile, "peak_rss_mb": peak_rss_mb() });
             write_atomic(&dir.join(marker_name(&s.id, &s.key)), format!("{body}\n").as_bytes())?;
             n += 1;
         }
     }
     Ok(n)
+}
+
+/// Peak resident memory of this process so far [MB] (Linux `VmHWM`; None elsewhere). A
+/// workflow job runs one stage per process, so this is that stage's peak.
+pub fn peak_rss_mb() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb: f64 = s.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.trim().trim_end_matches("kB").trim().parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// The largest peak memory [MB] recorded in the markers of stage `id` (any key) in `dir`.
+pub fn peak_from_markers(dir: &Path, id: &str) -> Option<f64> {
+    let prefix = format!("{id}.");
+    std::fs::read_dir(dir)
+        .ok()?
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().strip_prefix(&prefix).is_some_and(|rest| rest.len() == 32 + ".done".len() && rest.ends_with(".done")))
+        .filter_map(|e| serde_json::from_slice::<serde_json::Value>(&std::fs::read(e.path()).ok()?).ok()?.get("peak_rss_mb")?.as_f64())
+        .reduce(f64::max)
 }
 
 /// The run record of a stage under `reports/<profile>/`, when there is one.
@@ -179,7 +202,9 @@ pub fn snakefile(stages: &[Planned], o: &ExportOptions) -> String {
         }
         f.push_str(&format!("    output:\n        {},\n", py(&marker(s))));
         f.push_str(&format!("    threads: {threads}\n"));
-        f.push_str(&format!("    resources:\n        runtime={runtime},\n        mem_mb={},\n", o.mem_mb));
+        // Memory: twice the peak an earlier worker measured, at least 1000 MB.
+        let mem_mb = o.peak_mb.get(&s.id).map(|p| ((2.0 * p).ceil() as u64).max(1000)).unwrap_or(o.mem_mb);
+        f.push_str(&format!("    resources:\n        runtime={runtime},\n        mem_mb={mem_mb},\n"));
         let cmd = format!(
             "RAYON_NUM_THREADS={{threads}} {} run --only {} --profile {} --quiet --markers {}",
             cmd_head.replace('{', "{{").replace('}', "}}"),
@@ -213,6 +238,7 @@ mod tests {
             cache: Some("/shared/cache".into()),
             threads: 4,
             mem_mb: 2000,
+            peak_mb: [("b".to_string(), 700.2)].into_iter().collect(),
             default_runtime_min: 720,
             measured,
         };
@@ -220,7 +246,8 @@ mod tests {
         assert!(s.contains("rule stage_b:\n    input:\n        \".granrepro/markers/quick/a.k1.done\",\n    output:\n        \".granrepro/markers/quick/b.k2.done\",\n    threads: 2\n"), "{s}");
         // a cheap stage gets one thread; b: 2 × 600 s → 20 min + 10.
         assert!(s.contains("rule stage_a:\n    output:\n        \".granrepro/markers/quick/a.k1.done\",\n    threads: 1\n    resources:\n        runtime=11,"), "{s}");
-        assert!(s.contains("runtime=30,"), "{s}");
+        assert!(s.contains("runtime=30,\n        mem_mb=1401,"), "{s}");
+        assert!(s.contains("runtime=11,\n        mem_mb=2000,"), "{s}");
         // no record: the stated defaults.
         assert!(s.contains("rule stage_c_1:") && s.contains("    threads: 4\n    resources:\n        runtime=720,"), "{s}");
         assert!(s.contains("--cache '/shared/cache' run --only 'c-1' --profile 'quick' --quiet --markers '.granrepro/markers/quick'"), "{s}");
@@ -232,13 +259,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let summary = RunSummary {
             stages: vec![
-                StageReport { id: "a".into(), key: "k1".into(), outcome: Outcome::Cached },
+                StageReport { id: "a".into(), key: "0123456789abcdef0123456789abcdef".into(), outcome: Outcome::Cached },
                 StageReport { id: "b".into(), key: "k2".into(), outcome: Outcome::Ran { wall_s: 1.0 } },
                 StageReport { id: "c".into(), key: "k3".into(), outcome: Outcome::Failed("x".into()) },
             ],
         };
         assert_eq!(write_markers(dir.path(), "quick", &summary).unwrap(), 2);
-        assert!(dir.path().join("a.k1.done").is_file() && dir.path().join("b.k2.done").is_file());
+        assert!(dir.path().join("a.0123456789abcdef0123456789abcdef.done").is_file() && dir.path().join("b.k2.done").is_file());
         assert!(!dir.path().join("c.k3.done").exists());
+        if cfg!(target_os = "linux") {
+            let peak = peak_from_markers(dir.path(), "a");
+            assert!(peak.is_some_and(|p| p > 1.0), "{peak:?}");
+        }
     }
 }
