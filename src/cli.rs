@@ -15,6 +15,11 @@ pub struct Cli {
     /// Pipeline file.
     #[arg(long, global = true, default_value = "pipeline.yaml")]
     pub pipeline: PathBuf,
+    /// Content-addressed cache directory (default `.granrepro/cache` next to the pipeline;
+    /// also the environment variable GRANREPRO_CACHE). Many processes and machines may
+    /// share one, e.g. on a shared filesystem.
+    #[arg(long, global = true)]
+    pub cache: Option<PathBuf>,
     /// Command.
     #[command(subcommand)]
     pub cmd: Cmd,
@@ -45,6 +50,13 @@ pub enum DagFormat {
     Dot,
     /// Mermaid flowchart.
     Mermaid,
+}
+
+/// Workflow engines `export` writes for.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+pub enum ExportEngine {
+    /// A Snakefile: one rule per stage (`snakemake -j N`, `--executor slurm`).
+    Snakemake,
 }
 
 /// Benchmarked engines.
@@ -90,6 +102,49 @@ pub enum Cmd {
         /// Print the pre-flight stability table of every planned solver stage, run nothing.
         #[arg(long)]
         explain: bool,
+        /// After the run, write DIR/<id>.<key>.done for every stage whose cache entry is in
+        /// place (for workflow engines; see `export snakemake`).
+        #[arg(long, value_name = "DIR")]
+        markers: Option<PathBuf>,
+    },
+    /// The stages to run in a valid order with their cache keys and inputs (or, with
+    /// --estimate, the CPU-hours they need).
+    Plan {
+        /// Target stage (repeatable; a matrix base id means all its members). Default: all.
+        #[arg(long = "stage")]
+        stages: Vec<String>,
+        /// Profile.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+        /// One JSON document (profile, pipeline, cache, stages with id, kind, key, inputs, cached).
+        #[arg(long)]
+        json: bool,
+        /// Estimated CPU-hours per stage family, scaled from the quick profile's run records.
+        #[arg(long)]
+        estimate: bool,
+    },
+    /// Export the stage graph to a workflow engine (written to stdout).
+    Export {
+        /// Engine.
+        #[arg(value_enum)]
+        engine: ExportEngine,
+        /// Profile the rules run.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+        /// Target stage (repeatable; default: every stage).
+        #[arg(long = "stage")]
+        stages: Vec<String>,
+        /// The granrepro the workers run (default: this binary's absolute path; pass
+        /// `granrepro` to use the workers' PATH).
+        #[arg(long)]
+        bin: Option<String>,
+        /// Threads of a solver stage (stages measured under 1 s get 1).
+        #[arg(long, default_value_t = 2, value_parser = parse_jobs)]
+        threads: usize,
+        /// Memory request [MB] of a rule whose stage no earlier worker measured (markers
+        /// record peak memory; run records do not).
+        #[arg(long, default_value_t = 4000)]
+        mem_mb: u64,
     },
     /// List stages (id, kind, inputs, caption).
     List {
@@ -203,8 +258,26 @@ pub fn main() -> i32 {
 /// Run a parsed command line.
 pub fn run_cli(cli: Cli) -> i32 {
     let proj = project_of(&cli.pipeline);
+    let shared_cache = match cli.cmd {
+        Cmd::Run { .. } | Cmd::Status { .. } | Cmd::Clean { .. } | Cmd::Plan { .. } | Cmd::Export { .. } => match cache_dir(cli.cache.clone()) {
+            Ok(c) => c,
+            Err(m) => {
+                eprintln!("error: {m}");
+                return 2;
+            }
+        },
+        _ => None,
+    };
+    let proj = match &shared_cache {
+        Some(d) => proj.with_cache(d),
+        None => proj,
+    };
     match cli.cmd {
-        Cmd::Run { stages, only, profile, force, dry_run, jobs, sets, quiet, explain } => {
+        Cmd::Plan { stages, profile, json, estimate } => plan_cmd(&cli.pipeline, &proj, &stages, profile, json, estimate),
+        Cmd::Export { engine: ExportEngine::Snakemake, profile, stages, bin, threads, mem_mb } => {
+            export_snakemake(&cli.pipeline, &proj, shared_cache.as_deref(), &stages, profile, bin, threads, mem_mb)
+        }
+        Cmd::Run { stages, only, profile, force, dry_run, jobs, sets, quiet, explain, markers } => {
             let sets = match parse_sets(&sets) {
                 Ok(s) => s,
                 Err(c) => return c,
@@ -280,6 +353,10 @@ pub fn run_cli(cli: Cli) -> i32 {
                                 }
                             }
                         }
+                    }
+                    if let Some(Err(e)) = markers.as_ref().map(|dir| crate::pipeline::export::write_markers(dir, &p.profile, &summary)) {
+                        eprintln!("error: {e}");
+                        return 1;
                     }
                     println!(
                         "{} ran, {} cached; reports in {}",
@@ -379,6 +456,131 @@ pub fn run_cli(cli: Cli) -> i32 {
         Cmd::Bench { engine, steps } => bench(engine, steps),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
     }
+}
+
+/// The shared cache directory from `--cache` or `GRANREPRO_CACHE` (absolute), checked
+/// before anything runs: it must be a writable directory, or not exist yet inside one.
+fn cache_dir(opt: Option<PathBuf>) -> Result<Option<PathBuf>, String> {
+    let (dir, from) = match opt {
+        Some(d) => (d, "--cache"),
+        None => match std::env::var_os("GRANREPRO_CACHE").filter(|v| !v.is_empty()) {
+            Some(v) => (PathBuf::from(v), "GRANREPRO_CACHE"),
+            None => return Ok(None),
+        },
+    };
+    let dir = std::path::absolute(&dir).map_err(|e| format!("{from} {}: {e}", dir.display()))?;
+    let help = "help: point --cache (or GRANREPRO_CACHE) at a directory every worker can write, e.g. on a shared filesystem; it is created if only its last component is missing";
+    let writable = |d: &Path| tempfile::tempfile_in(d).is_ok();
+    if dir.exists() {
+        if !dir.is_dir() {
+            return Err(format!("{from} {}: not a directory\n  {help}", dir.display()));
+        }
+        if !writable(&dir) {
+            return Err(format!("{from} {}: directory is not writable\n  {help}", dir.display()));
+        }
+    } else {
+        let parent = dir.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("/"));
+        if !parent.is_dir() {
+            return Err(format!("{from} {}: its parent directory {} does not exist\n  {help}", dir.display(), parent.display()));
+        }
+        if !writable(parent) {
+            return Err(format!("{from} {}: its parent directory {} is not writable\n  {help}", dir.display(), parent.display()));
+        }
+    }
+    Ok(Some(dir))
+}
+
+/// `plan`: the stages in order with keys (text or JSON), or the paper budget.
+fn plan_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: ProfileArg, json: bool, estimate: bool) -> i32 {
+    let p = match load(pipeline, profile.name(), &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}");
+            return 2;
+        }
+    };
+    if estimate {
+        return match crate::pipeline::estimate::estimate(&p, proj, stages) {
+            Ok(e) => {
+                if json {
+                    println!("{}", serde_json::to_string_pretty(&e.to_json()).unwrap_or_default());
+                } else {
+                    print!("{}", e.to_text());
+                }
+                0
+            }
+            Err(m) => {
+                eprintln!("error: {m}");
+                2
+            }
+        };
+    }
+    match crate::pipeline::plan::plan(&p, proj, stages) {
+        Ok(st) => {
+            if json {
+                println!("{}", serde_json::to_string_pretty(&crate::pipeline::plan::to_json(&p, proj, &st)).unwrap_or_default());
+            } else {
+                print!("{}", crate::pipeline::plan::to_text(&st));
+            }
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}
+
+/// `export snakemake`: the Snakefile of the plan on stdout.
+#[allow(clippy::too_many_arguments)]
+fn export_snakemake(pipeline: &Path, proj: &Project, cache: Option<&Path>, stages: &[String], profile: ProfileArg, bin: Option<String>, threads: usize, mem_mb: u64) -> i32 {
+    use crate::pipeline::export::{ExportOptions, measured_from_record, snakefile};
+    let p = match load(pipeline, profile.name(), &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}");
+            return 2;
+        }
+    };
+    let plan = match crate::pipeline::plan::plan(&p, proj, stages) {
+        Ok(st) => st,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return 2;
+        }
+    };
+    let abs = |q: &Path| std::fs::canonicalize(q).or_else(|_| std::path::absolute(q)).unwrap_or_else(|_| q.to_path_buf());
+    let bin = match bin {
+        Some(b) => b,
+        None => match std::env::current_exe() {
+            Ok(b) => abs(&b).display().to_string(),
+            Err(_) => "granrepro".into(),
+        },
+    };
+    // Wall times: this profile's run records, else (for the paper profile) the budget's
+    // estimate scaled from the quick records.
+    let estimated = if profile == ProfileArg::Paper { crate::pipeline::estimate::estimate(&p, proj, stages).ok() } else { None };
+    let mut measured = std::collections::BTreeMap::new();
+    for s in &plan {
+        let m = measured_from_record(&proj.report_dir(&p.profile), &s.id).or_else(|| estimated.as_ref().and_then(|e| e.measured(&s.id)));
+        if let Some(m) = m {
+            measured.insert(s.id.clone(), m);
+        }
+    }
+    let o = ExportOptions {
+        profile: p.profile.clone(),
+        bin,
+        pipeline: abs(pipeline),
+        root: abs(&proj.root),
+        cache: cache.map(Path::to_path_buf),
+        threads,
+        mem_mb,
+        peak_mb: plan.iter().filter_map(|s| Some((s.id.clone(), crate::pipeline::export::peak_from_markers(&proj.root.join(crate::pipeline::export::marker_dir(&p.profile)), &s.id)?))).collect(),
+        default_runtime_min: 720,
+        measured,
+    };
+    print!("{}", snakefile(&plan, &o));
+    0
 }
 
 /// `clean`: only in the project of an existing pipeline file; only what granrepro made.

@@ -40,6 +40,12 @@ impl Project {
             reports: root.join("reports"),
         }
     }
+    /// The same project with its cache at `dir` (`--cache DIR` / `GRANREPRO_CACHE`: one
+    /// content-addressed cache shared by many processes or machines).
+    pub fn with_cache(mut self, dir: &Path) -> Project {
+        self.cache = Cache::new(dir);
+        self
+    }
     fn state_file(&self, profile: &str, id: &str) -> PathBuf {
         self.state.join(profile).join(format!("{id}.json"))
     }
