@@ -54,6 +54,30 @@ pub(crate) struct Partial {
     pub max_j: u32,
     pub wall_force: [Vec2; MAX_WALLS],
     pub moved: bool,
+    /// Rolling dashpots this chunk listed (pair pass), per wall (wall pass).
+    pub n_roll: [u32; MAX_WALLS],
+}
+
+/// One implicit rolling dashpot for the integrator's sweep: grains `i`, `j` (`j =
+/// u32::MAX`: a wall) and the dashpot.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct RollItem {
+    pub i: u32,
+    pub j: u32,
+    pub d: RollDashpot,
+}
+
+/// The dashpots of the last force evaluation, compacted in sweep order: chunk `c` of the
+/// pair pass wrote its dashpots to `items[c * PAIR_CHUNK..][..count[c]]` in pair order;
+/// the grain chunk `c` of wall `wi` to `witems[wi * n + c * GRAIN_CHUNK..][..wcount[wi * nc + c]]`.
+/// The sweep reads them in that order — pairs by (i, j), then walls by (wall, grain), as
+/// before — without scanning the separated pairs and empty wall slots.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RollLists {
+    pub items: Vec<RollItem>,
+    pub count: Vec<u32>,
+    pub witems: Vec<RollItem>,
+    pub wcount: Vec<u32>,
 }
 
 impl Partial {
@@ -140,12 +164,17 @@ pub struct World {
     pub(crate) fx: Vec<Real>,
     pub(crate) fy: Vec<Real>,
     pub(crate) tq: Vec<Real>,
-    /// Implicit rolling dashpot per grain–wall contact (index `wall * n + grain`).
-    pub(crate) wroll: Vec<RollDashpot>,
     /// Per-pair output [f_x, f_y, torque_i, torque_j] (one cache line per two pairs).
     pub(crate) pout: Vec<[Real; 4]>,
-    /// Implicit rolling dashpot per listed pair (`c = 0`: none).
-    pub(crate) proll: Vec<RollDashpot>,
+    /// Implicit rolling dashpots of the last force evaluation, in sweep order.
+    pub(crate) roll: RollLists,
+    /// Per listed pair: 0 when its last evaluation found it separated, so that its
+    /// history and output are zero and stay so while it stays separated (the pair pass
+    /// then does nothing for it). Set to 1 for
+    /// every pair by a rebuild or a history restore.
+    pub(crate) plive: Vec<u8>,
+    /// The same per grain–wall slot (`wall * n + grain`).
+    pub(crate) wlive: Vec<u8>,
     pub(crate) partials: Vec<Partial>,
     pub(crate) forces_valid: bool,
     /// Inactive walls whose contact histories have been released.
@@ -186,11 +215,12 @@ impl World {
             fx: Vec::new(),
             fy: Vec::new(),
             tq: Vec::new(),
-            wroll: Vec::new(),
             pout: Vec::new(),
             wall_cleared: [false; MAX_WALLS],
             walls_seen: Vec::new(),
-            proll: Vec::new(),
+            roll: RollLists::default(),
+            plive: Vec::new(),
+            wlive: Vec::new(),
             partials: Vec::new(),
             forces_valid: false,
         };
@@ -208,8 +238,10 @@ impl World {
             v.clear();
             v.resize(n, 0.0);
         }
-        self.wroll.clear();
-        self.wroll.resize(MAX_WALLS * n, RollDashpot::default());
+        self.roll.witems.clear();
+        self.roll.witems.resize(MAX_WALLS * n, RollItem::default());
+        self.roll.wcount.clear();
+        self.roll.wcount.resize(MAX_WALLS * n.div_ceil(GRAIN_CHUNK), 0);
         // keep wall histories of grains that still exist (grains appended at the end)
         let old_n = self.wall_hist.len() / MAX_WALLS;
         let mut wh = vec![ContactState::default(); MAX_WALLS * n];
@@ -219,6 +251,8 @@ impl World {
             }
         }
         self.wall_hist = wh;
+        self.wlive.clear();
+        self.wlive.resize(MAX_WALLS * n, 1);
         let (z, kn) = (self.params.wall.damping_ratio(), self.params.wall.kn);
         self.wall_cn = self.state.m.iter().map(|&m| normal_damping(z, m, kn)).collect();
         // the list is rebuilt (positions changed); pair histories are kept by key
@@ -238,7 +272,10 @@ impl World {
         self.state = s;
         let np = self.nl.len();
         self.pout.resize(np, [0.0; 4]);
-        self.proll.resize(np, RollDashpot::default());
+        self.roll.items.resize(np, RollItem::default());
+        self.roll.count.resize(np.div_ceil(PAIR_CHUNK), 0);
+        self.plive.clear();
+        self.plive.resize(np, 1);
     }
 
     /// Forces must be recomputed before the next kick (after external state edits that
@@ -371,7 +408,9 @@ impl World {
         let lx = self.periodic_x.unwrap_or(0.0);
         let (pi, pj, shift, cn, rr) = (&nl.pi, &nl.pj, &nl.shift, &nl.cn, &nl.r_roll);
         let hist = Ptr(nl.hist.as_mut_ptr());
-        let (pout, proll) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.proll.as_mut_ptr()));
+        let (pout, ritems) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.roll.items.as_mut_ptr()));
+        debug_assert_eq!(self.plive.len(), np);
+        let live = Ptr(self.plive.as_mut_ptr());
         let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
         chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
@@ -381,9 +420,12 @@ impl World {
                 let dy = y[i] - y[j];
                 let rsq = dx * dx + dy * dy;
                 let radsum = r[i] + r[j];
-                // cheapest rejection first: separated → drop history
+                // cheapest rejection first: separated → drop history (once: a pair found
+                // separated before has nothing left to drop)
                 if rsq >= radsum * radsum {
                     unsafe {
+                        if live.get(k) == 0 { continue; }
+                        live.set(k, 0);
                         let h = hist.get(k);
                         if h != ContactState::default() {
                             if L {
@@ -394,7 +436,6 @@ impl World {
                             hist.set(k, ContactState::default());
                         }
                         pout.set(k, [0.0; 4]);
-                        if IMP { proll.set(k, RollDashpot::default()); }
                     }
                     continue;
                 }
@@ -419,11 +460,15 @@ impl World {
                     cn: cn[k],
                 };
                 unsafe {
+                    live.set(k, 1);
                     let mut h = hist.get(k);
                     let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
                     hist.set(k, h);
                     pout.set(k, [o.f.x, o.f.y, o.t_i, o.t_j]);
-                    if IMP { proll.set(k, o.roll); }
+                    if IMP && o.roll.c > 0.0 {
+                        ritems.set(lo + part.n_roll[0] as usize, RollItem { i: i as u32, j: j as u32, d: o.roll });
+                        part.n_roll[0] += 1;
+                    }
                     if L {
                         part.ledger.normal_damping += o.work.normal;
                         part.ledger.tangential += o.work.tangential;
@@ -434,8 +479,9 @@ impl World {
             part
         });
         let mut total = Partial::default();
-        for p in &self.partials {
+        for (c, p) in self.partials.iter().enumerate() {
             total.merge(p);
+            self.roll.count[c] = p.n_roll[0];
         }
         let t_gather = Instant::now();
         // gather per grain, in increasing pair order
@@ -482,6 +528,7 @@ impl World {
         let mut total = Partial::default();
         self.release_inactive_walls::<R, IMP, L>(&mut total);
         if self.walls.iter().all(|w| !w.active) {
+            self.roll.wcount.fill(0);
             return total;
         }
         let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
@@ -491,7 +538,8 @@ impl World {
         let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
         let wcn = &self.wall_cn[..];
         let hist = Ptr(self.wall_hist.as_mut_ptr());
-        let (fx, fy, tq, wroll) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.wroll.as_mut_ptr()));
+        let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
+        let live = Ptr(self.wlive.as_mut_ptr());
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
             for (wi, wall) in walls.iter().enumerate() {
@@ -502,7 +550,8 @@ impl World {
                     let overlap = r[a] - wall.distance(p);
                     if overlap <= 0.0 {
                         unsafe {
-                            if IMP { wroll.set(hk, RollDashpot::default()); }
+                            if live.get(hk) == 0 { continue; }
+                            live.set(hk, 0);
                             let h = hist.get(hk);
                             if h != ContactState::default() {
                                 if L {
@@ -532,13 +581,17 @@ impl World {
                         cn: wcn[a],
                     };
                     unsafe {
+                        live.set(hk, 1);
                         let mut h = hist.get(hk);
                         let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
                         hist.set(hk, h);
                         fx.set(a, fx.get(a) + o.f.x);
                         fy.set(a, fy.get(a) + o.f.y);
                         tq.set(a, tq.get(a) + o.t_i);
-                        if IMP { wroll.set(hk, o.roll); }
+                        if IMP && o.roll.c > 0.0 {
+                            witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
+                            part.n_roll[wi] += 1;
+                        }
                         part.wall_force[wi] -= o.f;
                         if L {
                             part.ledger.wall_normal += o.work.normal;
@@ -551,8 +604,12 @@ impl World {
             }
             part
         });
-        for p in &self.partials {
+        let nc = self.partials.len();
+        for (c, p) in self.partials.iter().enumerate() {
             total.merge(p);
+            for wi in 0..MAX_WALLS {
+                self.roll.wcount[wi * nc + c] = p.n_roll[wi];
+            }
         }
         total
     }
@@ -568,9 +625,6 @@ impl World {
                 continue;
             }
             if self.wall_cleared[wi] { continue; }
-            for r in &mut self.wroll[wi * n..(wi + 1) * n] {
-                *r = RollDashpot::default();
-            }
             for h in &mut self.wall_hist[wi * n..(wi + 1) * n] {
                 if L {
                     let (et, er) = Law::<R, IMP, L>::released(&coeffs, h);
@@ -693,6 +747,8 @@ impl World {
                 restored += 1;
             }
         }
+        self.plive.fill(1);
+        self.wlive.fill(1);
         self.forces_valid = false;
         restored
     }

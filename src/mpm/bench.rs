@@ -40,8 +40,10 @@ impl BenchResult {
     }
 }
 
-/// Run `steps` steps of the benchmark column on a pool of `threads` threads.
-pub fn run(threads: usize, steps: u64) -> BenchResult {
+/// Run the benchmark column on a pool of `threads` threads: `steps` steps, or with
+/// `steps = None`, blocks of 100 steps until at least `min_s` seconds have been timed (a
+/// measurement under a second is too short to be stable on a shared machine).
+pub fn run(threads: usize, steps: Option<u64>, min_s: f64) -> BenchResult {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().expect("thread pool");
     pool.install(|| {
         let params = MpmParams::default();
@@ -53,9 +55,18 @@ pub fn run(threads: usize, steps: u64) -> BenchResult {
         }
         col.solver.times = PhaseTimes::default();
         let clock = std::time::Instant::now();
-        for _ in 0..steps {
-            col.solver.step(&mut col.state, dt).expect("bench step");
+        let mut done = 0u64;
+        loop {
+            let k = steps.map_or(100, |s| s - done);
+            for _ in 0..k {
+                col.solver.step(&mut col.state, dt).expect("bench step");
+            }
+            done += k;
+            if steps.is_some() || clock.elapsed().as_secs_f64() >= min_s {
+                break;
+            }
         }
+        let steps = done;
         let wall_s = clock.elapsed().as_secs_f64();
         let points = col.state.points.len();
         BenchResult {
