@@ -56,6 +56,9 @@ pub enum BenchEngine {
     Mpm,
     /// CD deposit of the Siconos reference script (25 × 20 and 40 × 25 disks, h = 2e-3 s).
     Cd,
+    /// Cost growth: wall time per step against grain / point count (1e3 … 1e5) for DEM,
+    /// CD and MPM, one thread; a table, JSON lines and `--svg FILE`.
+    Scaling,
 }
 
 /// DEM benchmark physics.
@@ -170,9 +173,15 @@ pub enum Cmd {
         /// DEM only: physics case (default: all three).
         #[arg(long, value_enum)]
         case: Vec<BenchCaseArg>,
-        /// Best of this many repetitions (each reported; MPM and scaling only).
+        /// Best of this many repetitions (each reported).
         #[arg(long, default_value_t = 1)]
         repeat: usize,
+        /// Scaling only: write the figure (SVG) here.
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Scaling only: largest size (default 100000).
+        #[arg(long, default_value_t = 100_000)]
+        max_n: usize,
     },
     /// Remove what granrepro made: the cache and state (and with --reports, the files it
     /// published under reports/). Other files are never touched.
@@ -407,7 +416,7 @@ pub fn run_cli(cli: Cli) -> i32 {
         }
         Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
-        Cmd::Bench { engine, steps, phases, threads, dt, case, repeat } => bench(engine, steps, &BenchOpts { phases, threads, dt, case, repeat }),
+        Cmd::Bench { engine, steps, phases, threads, dt, case, repeat, svg, max_n } => bench(engine, steps, &BenchOpts { phases, threads, dt, case, repeat, svg, max_n }),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
     }
 }
@@ -465,6 +474,8 @@ pub struct BenchOpts {
     dt: Option<f64>,
     case: Vec<BenchCaseArg>,
     repeat: usize,
+    svg: Option<PathBuf>,
+    max_n: usize,
 }
 
 /// A LAMMPS-style timer table: section, seconds, share of the total.
@@ -488,6 +499,7 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
         vec![1]
     };
     match engine {
+        BenchEngine::Scaling => bench_scaling(steps, o),
         BenchEngine::Dem => {
             use crate::dem::bench::{BenchCase, run};
             let steps = steps.unwrap_or(20_000);
@@ -603,4 +615,120 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
             0
         }
     }
+}
+
+/// `bench scaling`: seconds per step against size for the three engines, one thread.
+fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
+    use crate::report::plot::{Chart, Series, Style};
+    let threads = o.threads.first().copied().unwrap_or(1).max(1);
+    let sizes: Vec<usize> = [1_000usize, 3_000, 10_000, 30_000, 100_000].into_iter().filter(|&n| n <= o.max_n).collect();
+    // work per size ~ n × steps: fewer steps for the big ones, at least 20
+    let steps_for = |n: usize, base: u64| steps.unwrap_or((base * 10_000 / n as u64).clamp(20, base * 10));
+    let best = |f: &mut dyn FnMut() -> f64| (0..o.repeat.max(1)).map(|_| f()).fold(f64::INFINITY, f64::min);
+    let mut rows: Vec<(&str, usize, f64, String)> = Vec::new();
+    // DEM
+    let (dt, _) = crate::dem::bench::bench_dt(crate::dem::bench::BenchCase::Full);
+    let base = match crate::dem::bench::bench_scene(crate::dem::bench::BenchCase::Full, dt) {
+        Ok(w) => w,
+        Err(e) => {
+            eprintln!("error: bench scaling: {e}");
+            return 1;
+        }
+    };
+    for &n in &sizes {
+        let st = steps_for(n, 200);
+        let mut extra = String::new();
+        let mut err = None;
+        let s = best(&mut || match crate::dem::bench::scaling_point(&base, n, threads, st) {
+            Ok(p) => {
+                extra = format!("{:.2} pairs, {:.2} contacts per grain", p.pairs_per_grain, p.contacts_per_grain);
+                p.s_per_step
+            }
+            Err(e) => {
+                err = Some(e.to_string());
+                f64::NAN
+            }
+        });
+        if let Some(e) = err {
+            eprintln!("error: bench scaling (dem, {n}): {e}");
+            return 1;
+        }
+        println!("{}", serde_json::json!({"bench": "scaling", "engine": "dem", "n": n, "threads": threads, "steps": st, "s_per_step": s, "note": extra}));
+        rows.push(("DEM", n, s, extra));
+    }
+    // MPM
+    for &n in &sizes {
+        let st = steps_for(n, 20);
+        let mut pts = 0;
+        let s = best(&mut || {
+            let (p, s) = crate::mpm::bench::scaling_point(n, threads, st);
+            pts = p;
+            s
+        });
+        println!("{}", serde_json::json!({"bench": "scaling", "engine": "mpm", "n": pts, "threads": threads, "steps": st, "s_per_step": s}));
+        rows.push(("MPM", pts, s, String::new()));
+    }
+    // CD: the Siconos deposit, ncol × nrow ≈ n with ncol/nrow = 1.6 as its 40 × 25 case
+    for &n in &sizes {
+        let ncol = ((n as f64 * 1.6).sqrt().round() as usize).max(2);
+        let nrow = (n / ncol).max(1);
+        let st = steps_for(n, 20);
+        let mut extra = String::new();
+        let mut pts = ncol * nrow;
+        let mut err = None;
+        let s = best(&mut || match crate::cd::bench::run(ncol, nrow, threads, st) {
+            Ok(r) => {
+                pts = r.particles;
+                extra = format!("{:.0} contacts, {:.1} NLGS sweeps per step", r.contacts, r.iterations as f64 / r.steps.max(1) as f64);
+                r.wall_s / r.steps.max(1) as f64
+            }
+            Err(e) => {
+                err = Some(e.to_string());
+                f64::NAN
+            }
+        });
+        if let Some(e) = err {
+            eprintln!("error: bench scaling (cd, {n}): {e}");
+            return 1;
+        }
+        println!("{}", serde_json::json!({"bench": "scaling", "engine": "cd", "n": pts, "threads": threads, "steps": st, "s_per_step": s, "note": extra}));
+        rows.push(("CD", pts, s, extra));
+    }
+    println!("cost growth, {threads} thread(s): wall time per step");
+    println!("  {:<5} {:>8} {:>12} {:>14} {:>8}  {}", "engine", "n", "ms/step", "ns/(n·step)", "vs 1e3", "");
+    for eng in ["DEM", "MPM", "CD"] {
+        let r: Vec<_> = rows.iter().filter(|r| r.0 == eng).collect();
+        let Some(first) = r.first() else { continue };
+        let unit0 = first.2 / first.1 as f64;
+        for x in &r {
+            let unit = x.2 / x.1 as f64;
+            println!("  {:<5} {:>8} {:>12.3} {:>14.1} {:>8.2}  {}", x.0, x.1, 1e3 * x.2, 1e9 * unit, unit / unit0, x.3);
+        }
+    }
+    if let Some(path) = &o.svg {
+        let series: Vec<Series> = ["DEM", "MPM", "CD"]
+            .iter()
+            .enumerate()
+            .map(|(c, eng)| Series::new(format!("{eng} (measured)"), Style::LinePoints, rows.iter().filter(|r| r.0 == *eng).map(|r| (r.1 as f64, r.2)).collect(), c))
+            .chain(rows.iter().find(|r| r.0 == "DEM").map(|r| {
+                let k = r.2 / r.1 as f64;
+                Series::new("linear in n (through DEM at 1e3)", Style::Dashed, sizes.iter().map(|&n| (n as f64, k * n as f64)).collect(), 7)
+            }))
+            .collect();
+        let chart = Chart::log_log(
+            format!("Cost growth: wall time per step vs size ({threads} thread(s))"),
+            "granrepro bench scaling; DEM: settled column with rolling resistance + ledger; MPM: GIMP + Mohr-Coulomb column; CD: Siconos deposit".into(),
+            "grains / material points",
+            "wall time per step [s]",
+            series,
+        );
+        match chart.to_svg().map_err(|e| e.to_string()).and_then(|svg| std::fs::write(path, svg).map_err(|e| e.to_string())) {
+            Ok(()) => println!("figure: {}", path.display()),
+            Err(e) => {
+                eprintln!("error: {}: {e}", path.display());
+                return 1;
+            }
+        }
+    }
+    0
 }

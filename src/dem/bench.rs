@@ -221,3 +221,75 @@ pub fn run(case: BenchCase, threads: usize, steps: u64, dt: Option<Real>) -> Res
         })
     })
 }
+
+/// One point of the cost-growth measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScalingPoint {
+    /// Grains.
+    pub grains: usize,
+    /// Timed steps.
+    pub steps: u64,
+    /// Wall time per step [s].
+    pub s_per_step: f64,
+    /// Listed pairs per grain at the end.
+    pub pairs_per_grain: f64,
+    /// Grain–grain contacts per grain at the end.
+    pub contacts_per_grain: f64,
+}
+
+/// Cost growth of the DEM step with the chapter's physics (rolling resistance with the
+/// implicit dashpot, ledger on, Δt = [`bench_dt`]): the settled reference column, cut to
+/// its first `n` grains (its bottom layers) or repeated side by side (copies at L_0
+/// spacing, contact histories kept) up to `n`, gate removed, `steps` steps timed after
+/// 100 warm-up steps. The packing and the contact network per grain are the same at every
+/// size, so the time per step should grow like n (neighbour build, pair and grain loops
+/// are all O(n)).
+pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
+    pool.install(|| {
+        let l0 = 44.5 * 1.38e-3;
+        let nb = base.state.len();
+        let copies = n.div_ceil(nb);
+        let mut st = crate::dem::state::State::with_capacity(n);
+        let mut hist = crate::dem::world::SavedHistories::default();
+        let saved = base.saved_histories();
+        for c in 0..copies {
+            let off = c * nb;
+            let take = (n - off).min(nb);
+            let s = &base.state;
+            for a in 0..take {
+                st.x.push(s.x[a] + c as Real * l0);
+                for (dst, src) in [(&mut st.y, &s.y), (&mut st.vx, &s.vx), (&mut st.vy, &s.vy), (&mut st.w, &s.w), (&mut st.theta, &s.theta), (&mut st.r, &s.r), (&mut st.m, &s.m), (&mut st.inv_m, &s.inv_m), (&mut st.inertia, &s.inertia), (&mut st.inv_i, &s.inv_i)] {
+                    dst.push(src[a]);
+                }
+            }
+            for &(a, b, h) in &saved.pairs {
+                if (a as usize) < take && (b as usize) < take {
+                    hist.pairs.push((a + off as u32, b + off as u32, h));
+                }
+            }
+            for &(wi, a, h) in &saved.walls {
+                // floor contacts of every copy; the left wall only touches the first
+                if (a as usize) < take && (wi == 0 || c == 0) {
+                    hist.walls.push((wi, a + off as u32, h));
+                }
+            }
+        }
+        let mut walls = box_walls(copies as Real * l0);
+        walls.retain(|w| w.name != "gate");
+        let mut w = World::new(base.params.clone(), st, walls, None)?;
+        w.restore_histories(&hist);
+        w.run(100)?;
+        let t0 = Instant::now();
+        w.run(steps)?;
+        let s_per_step = t0.elapsed().as_secs_f64() / steps.max(1) as f64;
+        let grains = w.state.len();
+        Ok(ScalingPoint {
+            grains,
+            steps,
+            s_per_step,
+            pairs_per_grain: w.pair_count() as f64 / grains as f64,
+            contacts_per_grain: 2.0 * w.contact_count() as f64 / grains as f64,
+        })
+    })
+}

@@ -79,3 +79,24 @@ pub fn run(threads: usize, steps: Option<u64>, min_s: f64) -> BenchResult {
         }
     })
 }
+
+/// Cost growth: the a = 1 benchmark column (same material, cells, 16 PPC) sized to about
+/// `points` points (area = points / 4e6 m²), released, `steps` steps timed after 5 warm-up
+/// steps. Returns (points, seconds per step).
+pub fn scaling_point(points: usize, threads: usize, steps: u64) -> (usize, f64) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().expect("thread pool");
+    pool.install(|| {
+        let params = MpmParams::default();
+        let mut col = column::build(&params, ColumnSpec::from_area(1.0, points as Real / 4e6)).expect("scaling column");
+        column::release(&mut col);
+        let dt = col.solver.dt(&col.state);
+        for _ in 0..5 {
+            col.solver.step(&mut col.state, dt).expect("scaling warm-up");
+        }
+        let clock = std::time::Instant::now();
+        for _ in 0..steps {
+            col.solver.step(&mut col.state, dt).expect("scaling step");
+        }
+        (col.state.points.len(), clock.elapsed().as_secs_f64() / steps.max(1) as f64)
+    })
+}
