@@ -31,7 +31,7 @@
 
 use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
-use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, World, chunked};
+use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, U, World, chunked};
 use crate::math::Real;
 
 impl World {
@@ -70,8 +70,9 @@ impl World {
         let n = s.len();
         let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
-        let (inv_m, inv_i) = (&s.inv_m[..], &s.inv_i[..]);
-        let (fx, fy, tq) = (&self.fx[..], &self.fy[..], &self.tq[..]);
+        let (inv_m, inv_i) = (U(&s.inv_m[..]), U(&s.inv_i[..]));
+        let (fx, fy, tq) = (U(&self.fx[..]), U(&self.fy[..]), U(&self.tq[..]));
+        debug_assert!(s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n);
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
         let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
@@ -113,7 +114,7 @@ impl World {
         let dt = self.params.dt;
         let s = &mut self.state;
         let n = s.len();
-        let (vx, vy, w) = (&s.vx[..], &s.vy[..], &s.w[..]);
+        let (vx, vy, w) = (U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]));
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;

@@ -45,6 +45,22 @@ impl<T: Copy> Ptr<T> {
     pub(crate) unsafe fn set(self, i: usize, v: T) { unsafe { *self.0.add(i) = v } }
 }
 
+/// A slice indexed without bounds checks, for the hot loops whose indices come from the
+/// neighbour list and gather tables (every entry < the number of grains / pairs they were
+/// built for; a state that loses grains gets a new `World`, one that gains grains a
+/// rebuild). Checked in debug builds.
+#[derive(Clone, Copy)]
+pub(crate) struct U<'a, T>(pub(crate) &'a [T]);
+impl<T> std::ops::Index<usize> for U<'_, T> {
+    type Output = T;
+    #[inline(always)]
+    fn index(&self, i: usize) -> &T {
+        debug_assert!(i < self.0.len());
+        // SAFETY: see the type's doc
+        unsafe { self.0.get_unchecked(i) }
+    }
+}
+
 /// Per-chunk partial results, summed in chunk order.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Partial {
@@ -406,12 +422,14 @@ impl World {
         let nl = &mut self.nl;
         let np = nl.pi.len();
         let lx = self.periodic_x.unwrap_or(0.0);
-        let (pi, pj, shift, cn, rr) = (&nl.pi, &nl.pj, &nl.shift, &nl.cn, &nl.r_roll);
+        let (pi, pj, shift, cn, rr) = (U(&nl.pi[..]), U(&nl.pj[..]), U(&nl.shift[..]), U(&nl.cn[..]), U(&nl.r_roll[..]));
+        let n_grains = s.len();
+        debug_assert!(nl.pj.iter().all(|&j| (j as usize) < n_grains));
         let hist = Ptr(nl.hist.as_mut_ptr());
         let (pout, ritems) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.roll.items.as_mut_ptr()));
         debug_assert_eq!(self.plive.len(), np);
         let live = Ptr(self.plive.as_mut_ptr());
-        let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
+        let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
         chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
             for k in lo..hi {
@@ -487,10 +505,10 @@ impl World {
         // gather per grain, in increasing pair order
         let n = s.len();
         let g = self.params.gravity;
-        let (istart, jstart, jlist) = (&nl.istart, &nl.jstart, &nl.jlist);
-        let pout = &self.pout[..];
+        let (istart, jstart, jlist) = (U(&nl.istart[..]), U(&nl.jstart[..]), &nl.jlist);
+        let pout = U(&self.pout[..]);
         let (fx, fy, tq) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()));
-        let m = &s.m[..];
+        let m = U(&s.m[..]);
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             for a in lo..hi {
                 let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
@@ -535,8 +553,8 @@ impl World {
         let s = &self.state;
         let n = s.len();
         let walls = &self.walls;
-        let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
-        let wcn = &self.wall_cn[..];
+        let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
+        let wcn = U(&self.wall_cn[..]);
         let hist = Ptr(self.wall_hist.as_mut_ptr());
         let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
         let live = Ptr(self.wlive.as_mut_ptr());
