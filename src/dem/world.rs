@@ -346,6 +346,17 @@ impl World {
     }
 
     fn run_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
+        // The hot loops index the grain arrays with the list's indices unchecked (`U`):
+        // a state edited without `resize_scratch` (or resized without a rebuild) gets its
+        // scratch and list brought up to date first. The library's own callers never
+        // reach these branches (they resize and rebuild themselves), so no result moves.
+        let ng = self.state.len();
+        if self.fx.len() != ng || self.wall_cn.len() != ng {
+            self.resize_scratch();
+        }
+        if self.nl.x0.len() != ng {
+            self.rebuild();
+        }
         if self.walls != self.walls_seen {
             // a wall was edited between runs (gate removed, wall shifted): the stored forces
             // are stale for the first half kick
