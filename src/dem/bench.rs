@@ -4,7 +4,12 @@
 //! collapse. Set-up (lattice + soft settling, ≈ 5 s) is not timed.
 //!
 //! Cases: `Full` = table 4.2 physics with implicit rolling resistance and the ledger;
-//! `NoRollingNoLedger` = the LAMMPS `gran/hooke/history` physics (compare with LAMMPS).
+//! `RollingNoLedger` = the same without the ledger (shows what the inline bookkeeping
+//! costs); `NoRollingNoLedger` = the LAMMPS `gran/hooke/history` physics.
+//!
+//! Time step: [`bench_dt`], the LAMMPS reference's 1e-6 s when the pre-flight accepts it
+//! for the case's physics, else the largest step it accepts (rounded down to two
+//! significant digits); run LAMMPS at the same step for a ratio.
 
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
@@ -21,6 +26,8 @@ use std::time::Instant;
 pub enum BenchCase {
     /// Rolling resistance (implicit dashpot) + energy ledger.
     Full,
+    /// Rolling resistance (implicit dashpot), no ledger.
+    RollingNoLedger,
     /// No rolling resistance, no ledger (same physics as the LAMMPS reference).
     NoRollingNoLedger,
 }
@@ -32,6 +39,10 @@ pub struct BenchResult {
     pub case: BenchCase,
     /// Rayon threads.
     pub threads: usize,
+    /// Time step [s].
+    pub dt: f64,
+    /// Largest step the pre-flight accepts for this scene [s].
+    pub preflight_limit_s: f64,
     /// Grains.
     pub grains: usize,
     /// Timed steps.
@@ -67,12 +78,24 @@ fn process_cpu_s() -> f64 {
     (tick(11) + tick(12)) / 100.0
 }
 
-/// Scene parameters of the reference (Δt = 1e-6 s as LAMMPS; table 4.2 otherwise).
-pub fn bench_params(case: BenchCase) -> DemParams {
-    let mut p = DemParams { dt: 1e-6, ..DemParams::default() };
+impl BenchCase {
+    /// Name in the JSON output.
+    pub fn name(self) -> &'static str {
+        match self {
+            BenchCase::Full => "rolling+ledger",
+            BenchCase::RollingNoLedger => "rolling-no-ledger",
+            BenchCase::NoRollingNoLedger => "no-rolling-no-ledger",
+        }
+    }
+}
+
+/// Scene parameters of the reference at step `dt` (table 4.2 otherwise).
+pub fn bench_params(case: BenchCase, dt: Real) -> DemParams {
+    let mut p = DemParams { dt, ..DemParams::default() };
     p.watchdog.every = 0;
     match case {
         BenchCase::Full => {}
+        BenchCase::RollingNoLedger => p.ledger = false,
         BenchCase::NoRollingNoLedger => {
             p.rolling.enabled = false;
             p.ledger = false;
@@ -81,13 +104,62 @@ pub fn bench_params(case: BenchCase) -> DemParams {
     p
 }
 
-/// The settled reference column with its gate still closed.
-pub fn bench_scene(case: BenchCase) -> Result<World, DemError> {
-    let n = 2924;
+/// The LAMMPS reference's step.
+pub const LAMMPS_DT: Real = 1e-6;
+
+/// Radii of the reference scene (the same draw every time).
+fn bench_radii() -> Vec<Real> {
     let mut rng = SplitMix64(4242);
-    let radii: Vec<Real> = (0..n).map(|_| 0.5 * (0.92e-3 + (1.38e-3 - 0.92e-3) * rng.next_f64())).collect();
+    (0..2924).map(|_| 0.5 * (0.92e-3 + (1.38e-3 - 0.92e-3) * rng.next_f64())).collect()
+}
+
+/// The step of a case: 1e-6 s (LAMMPS) if the pre-flight accepts it, else its largest
+/// accepted step rounded down to two significant digits. Returns (dt, pre-flight limit).
+pub fn bench_dt(case: BenchCase) -> (Real, Real) {
+    let r = bench_radii();
+    let (lo, hi) = r.iter().fold((Real::INFINITY, 0.0 as Real), |(a, b), &x| (a.min(x), b.max(x)));
+    let mean = r.iter().sum::<Real>() / r.len() as Real;
+    let sizes = crate::dem::preflight::SizeClasses { r_min: lo, r_mean: mean, r_max: hi };
+    let p = bench_params(case, LAMMPS_DT);
+    let limit = crate::dem::preflight::time_scales(&p, sizes, true, LAMMPS_DT).iter().map(|t| t.limit).fold(Real::INFINITY, Real::min);
+    if LAMMPS_DT < limit {
+        return (LAMMPS_DT, limit);
+    }
+    let e = limit.log10().floor() - 1.0;
+    let q = 10f64.powf(e);
+    let mut dt = (limit / q).floor() * q;
+    if dt >= limit { dt -= q; }
+    (dt, limit)
+}
+
+/// The settled reference column with its gate still closed.
+///
+/// With `GRANREPRO_BENCH_SCENE=FILE` the settled grains and contact histories are read
+/// from FILE if it exists (else built and written there): for profiling under valgrind,
+/// where the set-up would cost minutes. The timed steps are the same work either way.
+pub fn bench_scene(case: BenchCase, dt: Real) -> Result<World, DemError> {
     let l0 = 44.5 * 1.38e-3;
-    let params = bench_params(case);
+    if let Some(path) = std::env::var_os("GRANREPRO_BENCH_SCENE") {
+        let path = std::path::PathBuf::from(path);
+        if let Ok(b) = std::fs::read(&path) {
+            let (st, h): (crate::dem::state::State, crate::dem::world::SavedHistories) =
+                serde_json::from_slice(&b).map_err(|e| DemError::Setup(format!("{}: {e}", path.display())))?;
+            let mut w = World::new(bench_params(case, dt), st, box_walls(l0), None)?;
+            w.restore_histories(&h);
+            return Ok(w);
+        }
+        let w = build_scene(case, dt)?;
+        let b = serde_json::to_vec(&(&w.state, w.saved_histories())).map_err(|e| DemError::Setup(e.to_string()))?;
+        std::fs::write(&path, b).map_err(|e| DemError::Setup(format!("{}: {e}", path.display())))?;
+        return Ok(w);
+    }
+    build_scene(case, dt)
+}
+
+fn build_scene(case: BenchCase, dt: Real) -> Result<World, DemError> {
+    let radii = bench_radii();
+    let l0 = 44.5 * 1.38e-3;
+    let params = bench_params(case, dt);
     let s = lattice_column(&radii, l0, 1.38e-3, params.density);
     // settle soft (k/100, Δt×10), then switch to the run stiffness
     let mut soft = params.softened(0.01);
@@ -102,11 +174,14 @@ pub fn bench_scene(case: BenchCase) -> Result<World, DemError> {
     Ok(w)
 }
 
-/// Build the scene, open the gate and time `steps` steps on a pool of `threads` threads.
-pub fn run(case: BenchCase, threads: usize, steps: u64) -> Result<BenchResult, DemError> {
+/// Build the scene, open the gate and time `steps` steps on a pool of `threads` threads,
+/// at step `dt` (None: [`bench_dt`]).
+pub fn run(case: BenchCase, threads: usize, steps: u64, dt: Option<Real>) -> Result<BenchResult, DemError> {
+    let (auto_dt, preflight_limit_s) = bench_dt(case);
+    let dt = dt.unwrap_or(auto_dt);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
     pool.install(|| {
-        let mut w = bench_scene(case)?;
+        let mut w = bench_scene(case, dt)?;
         for wall in w.walls.iter_mut() {
             if wall.name == "gate" { wall.active = false; }
         }
@@ -131,6 +206,8 @@ pub fn run(case: BenchCase, threads: usize, steps: u64) -> Result<BenchResult, D
         Ok(BenchResult {
             case,
             threads,
+            dt,
+            preflight_limit_s,
             grains,
             steps,
             wall_s,
@@ -141,6 +218,78 @@ pub fn run(case: BenchCase, threads: usize, steps: u64) -> Result<BenchResult, D
             pairs_per_grain: w.pair_count() as f64 / grains as f64,
             timers: w.timers,
             cpu_s,
+        })
+    })
+}
+
+/// One point of the cost-growth measurement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScalingPoint {
+    /// Grains.
+    pub grains: usize,
+    /// Timed steps.
+    pub steps: u64,
+    /// Wall time per step [s].
+    pub s_per_step: f64,
+    /// Listed pairs per grain at the end.
+    pub pairs_per_grain: f64,
+    /// Grain–grain contacts per grain at the end.
+    pub contacts_per_grain: f64,
+}
+
+/// Cost growth of the DEM step with the chapter's physics (rolling resistance with the
+/// implicit dashpot, ledger on, Δt = [`bench_dt`]): the settled reference column, cut to
+/// its first `n` grains (its bottom layers) or repeated side by side (copies at L_0
+/// spacing, contact histories kept) up to `n`, gate removed, `steps` steps timed after
+/// 100 warm-up steps. The packing and the contact network per grain are the same at every
+/// size, so the time per step should grow like n (neighbour build, pair and grain loops
+/// are all O(n)).
+pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
+    pool.install(|| {
+        let l0 = 44.5 * 1.38e-3;
+        let nb = base.state.len();
+        let copies = n.div_ceil(nb);
+        let mut st = crate::dem::state::State::with_capacity(n);
+        let mut hist = crate::dem::world::SavedHistories::default();
+        let saved = base.saved_histories();
+        for c in 0..copies {
+            let off = c * nb;
+            let take = (n - off).min(nb);
+            let s = &base.state;
+            for a in 0..take {
+                st.x.push(s.x[a] + c as Real * l0);
+                for (dst, src) in [(&mut st.y, &s.y), (&mut st.vx, &s.vx), (&mut st.vy, &s.vy), (&mut st.w, &s.w), (&mut st.theta, &s.theta), (&mut st.r, &s.r), (&mut st.m, &s.m), (&mut st.inv_m, &s.inv_m), (&mut st.inertia, &s.inertia), (&mut st.inv_i, &s.inv_i)] {
+                    dst.push(src[a]);
+                }
+            }
+            for &(a, b, h) in &saved.pairs {
+                if (a as usize) < take && (b as usize) < take {
+                    hist.pairs.push((a + off as u32, b + off as u32, h));
+                }
+            }
+            for &(wi, a, h) in &saved.walls {
+                // floor contacts of every copy; the left wall only touches the first
+                if (a as usize) < take && (wi == 0 || c == 0) {
+                    hist.walls.push((wi, a + off as u32, h));
+                }
+            }
+        }
+        let mut walls = box_walls(copies as Real * l0);
+        walls.retain(|w| w.name != "gate");
+        let mut w = World::new(base.params.clone(), st, walls, None)?;
+        w.restore_histories(&hist);
+        w.run(100)?;
+        let t0 = Instant::now();
+        w.run(steps)?;
+        let s_per_step = t0.elapsed().as_secs_f64() / steps.max(1) as f64;
+        let grains = w.state.len();
+        Ok(ScalingPoint {
+            grains,
+            steps,
+            s_per_step,
+            pairs_per_grain: w.pair_count() as f64 / grains as f64,
+            contacts_per_grain: 2.0 * w.contact_count() as f64 / grains as f64,
         })
     })
 }

@@ -31,7 +31,7 @@
 
 use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
-use crate::dem::world::{GRAIN_CHUNK, Partial, Ptr, World, chunked};
+use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, U, World, chunked};
 use crate::math::Real;
 
 impl World {
@@ -70,8 +70,9 @@ impl World {
         let n = s.len();
         let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
-        let (inv_m, inv_i) = (&s.inv_m[..], &s.inv_i[..]);
-        let (fx, fy, tq) = (&self.fx[..], &self.fy[..], &self.tq[..]);
+        let (inv_m, inv_i) = (U(&s.inv_m[..]), U(&s.inv_i[..]));
+        let (fx, fy, tq) = (U(&self.fx[..]), U(&self.fy[..]), U(&self.tq[..]));
+        debug_assert!(s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n);
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
         let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
@@ -113,7 +114,7 @@ impl World {
         let dt = self.params.dt;
         let s = &mut self.state;
         let n = s.len();
-        let (vx, vy, w) = (&s.vx[..], &s.vy[..], &s.w[..]);
+        let (vx, vy, w) = (U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]));
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
@@ -133,26 +134,38 @@ impl World {
     /// One sweep of pairwise backward-Euler rolling-dashpot impulses over a half step
     /// (module doc), grain pairs in list order, then grain–wall contacts.
     fn rolling_dashpot<const L: bool>(&mut self) {
+        let t0 = std::time::Instant::now();
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;
         let (w, inv_i, inertia) = (&mut s.w[..], &s.inv_i[..], &s.inertia[..]);
         let mut led = Ledger::default();
-        for (k, d) in self.proll.iter().enumerate() {
-            if d.c > 0.0 {
-                let (i, j) = (self.nl.pi[k] as usize, self.nl.pj[k] as usize);
-                pair_impulse::<L>(d, h, w, inv_i, inertia, i, Some(j), &mut led);
+        // The dashpots listed by the last force evaluation, in sweep order (pairs by
+        // (i, j), then walls by (wall, grain); see `RollLists`).
+        let rl = &self.roll;
+        for (c, &cnt) in rl.count.iter().enumerate() {
+            for it in &rl.items[c * PAIR_CHUNK..c * PAIR_CHUNK + cnt as usize] {
+                pair_impulse::<L>(&it.d, h, w, inv_i, inertia, it.i as usize, Some(it.j as usize), &mut led);
             }
         }
         let n = w.len();
-        // grain–wall contacts of the scene's walls only (wroll holds MAX_WALLS slots)
-        for (hk, d) in self.wroll[..self.walls.len().min(crate::dem::world::MAX_WALLS) * n].iter().enumerate() {
-            if d.c > 0.0 {
-                pair_impulse::<L>(d, h, w, inv_i, inertia, hk % n, None, &mut led);
+        let nc = n.div_ceil(GRAIN_CHUNK);
+        let nw = self.walls.len().min(MAX_WALLS);
+        for wi in 0..nw {
+            for c in 0..nc {
+                let cnt = rl.wcount[wi * nc + c] as usize;
+                let at = wi * n + c * GRAIN_CHUNK;
+                for it in &rl.witems[at..at + cnt] {
+                    pair_impulse::<L>(&it.d, h, w, inv_i, inertia, it.i as usize, None, &mut led);
+                }
             }
         }
         if L {
             self.ledger += led;
         }
+        // reported as its own phase (the caller's timer counts it under `integrate`)
+        let el = t0.elapsed().as_secs_f64();
+        self.timers.rolling += el;
+        self.timers.integrate -= el;
     }
 }
 

@@ -17,6 +17,9 @@ pub struct PhaseTimers {
     pub walls: f64,
     /// `integrate` (both half kicks and the drift).
     pub integrate: f64,
+    /// Implicit rolling dashpot sweeps (both half kicks).
+    #[serde(default)]
+    pub rolling: f64,
     /// `ledger` (reduction of dissipation partials).
     pub ledger: f64,
     /// `watchdog`.
@@ -25,7 +28,7 @@ pub struct PhaseTimers {
 
 impl PhaseTimers {
     /// Sum of all phases [s].
-    pub fn total(&self) -> f64 { self.neighbors + self.contacts + self.gather + self.walls + self.integrate + self.ledger + self.watchdog }
+    pub fn total(&self) -> f64 { self.neighbors + self.contacts + self.gather + self.walls + self.integrate + self.rolling + self.ledger + self.watchdog }
 }
 
 /// Run `f`, add its duration to `*slot`.

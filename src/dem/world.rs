@@ -45,6 +45,22 @@ impl<T: Copy> Ptr<T> {
     pub(crate) unsafe fn set(self, i: usize, v: T) { unsafe { *self.0.add(i) = v } }
 }
 
+/// A slice indexed without bounds checks, for the hot loops whose indices come from the
+/// neighbour list and gather tables (every entry < the number of grains / pairs they were
+/// built for; a state that loses grains gets a new `World`, one that gains grains a
+/// rebuild). Checked in debug builds.
+#[derive(Clone, Copy)]
+pub(crate) struct U<'a, T>(pub(crate) &'a [T]);
+impl<T> std::ops::Index<usize> for U<'_, T> {
+    type Output = T;
+    #[inline(always)]
+    fn index(&self, i: usize) -> &T {
+        debug_assert!(i < self.0.len());
+        // SAFETY: see the type's doc
+        unsafe { self.0.get_unchecked(i) }
+    }
+}
+
 /// Per-chunk partial results, summed in chunk order.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Partial {
@@ -54,6 +70,30 @@ pub(crate) struct Partial {
     pub max_j: u32,
     pub wall_force: [Vec2; MAX_WALLS],
     pub moved: bool,
+    /// Rolling dashpots this chunk listed (pair pass), per wall (wall pass).
+    pub n_roll: [u32; MAX_WALLS],
+}
+
+/// One implicit rolling dashpot for the integrator's sweep: grains `i`, `j` (`j =
+/// u32::MAX`: a wall) and the dashpot.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct RollItem {
+    pub i: u32,
+    pub j: u32,
+    pub d: RollDashpot,
+}
+
+/// The dashpots of the last force evaluation, compacted in sweep order: chunk `c` of the
+/// pair pass wrote its dashpots to `items[c * PAIR_CHUNK..][..count[c]]` in pair order;
+/// the grain chunk `c` of wall `wi` to `witems[wi * n + c * GRAIN_CHUNK..][..wcount[wi * nc + c]]`.
+/// The sweep reads them in that order — pairs by (i, j), then walls by (wall, grain), as
+/// before — without scanning the separated pairs and empty wall slots.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RollLists {
+    pub items: Vec<RollItem>,
+    pub count: Vec<u32>,
+    pub witems: Vec<RollItem>,
+    pub wcount: Vec<u32>,
 }
 
 impl Partial {
@@ -140,12 +180,17 @@ pub struct World {
     pub(crate) fx: Vec<Real>,
     pub(crate) fy: Vec<Real>,
     pub(crate) tq: Vec<Real>,
-    /// Implicit rolling dashpot per grain–wall contact (index `wall * n + grain`).
-    pub(crate) wroll: Vec<RollDashpot>,
     /// Per-pair output [f_x, f_y, torque_i, torque_j] (one cache line per two pairs).
     pub(crate) pout: Vec<[Real; 4]>,
-    /// Implicit rolling dashpot per listed pair (`c = 0`: none).
-    pub(crate) proll: Vec<RollDashpot>,
+    /// Implicit rolling dashpots of the last force evaluation, in sweep order.
+    pub(crate) roll: RollLists,
+    /// Per listed pair: 0 when its last evaluation found it separated, so that its
+    /// history and output are zero and stay so while it stays separated (the pair pass
+    /// then does nothing for it). Set to 1 for
+    /// every pair by a rebuild or a history restore.
+    pub(crate) plive: Vec<u8>,
+    /// The same per grain–wall slot (`wall * n + grain`).
+    pub(crate) wlive: Vec<u8>,
     pub(crate) partials: Vec<Partial>,
     pub(crate) forces_valid: bool,
     /// Inactive walls whose contact histories have been released.
@@ -186,11 +231,12 @@ impl World {
             fx: Vec::new(),
             fy: Vec::new(),
             tq: Vec::new(),
-            wroll: Vec::new(),
             pout: Vec::new(),
             wall_cleared: [false; MAX_WALLS],
             walls_seen: Vec::new(),
-            proll: Vec::new(),
+            roll: RollLists::default(),
+            plive: Vec::new(),
+            wlive: Vec::new(),
             partials: Vec::new(),
             forces_valid: false,
         };
@@ -208,8 +254,10 @@ impl World {
             v.clear();
             v.resize(n, 0.0);
         }
-        self.wroll.clear();
-        self.wroll.resize(MAX_WALLS * n, RollDashpot::default());
+        self.roll.witems.clear();
+        self.roll.witems.resize(MAX_WALLS * n, RollItem::default());
+        self.roll.wcount.clear();
+        self.roll.wcount.resize(MAX_WALLS * n.div_ceil(GRAIN_CHUNK), 0);
         // keep wall histories of grains that still exist (grains appended at the end)
         let old_n = self.wall_hist.len() / MAX_WALLS;
         let mut wh = vec![ContactState::default(); MAX_WALLS * n];
@@ -219,6 +267,8 @@ impl World {
             }
         }
         self.wall_hist = wh;
+        self.wlive.clear();
+        self.wlive.resize(MAX_WALLS * n, 1);
         let (z, kn) = (self.params.wall.damping_ratio(), self.params.wall.kn);
         self.wall_cn = self.state.m.iter().map(|&m| normal_damping(z, m, kn)).collect();
         // the list is rebuilt (positions changed); pair histories are kept by key
@@ -238,7 +288,10 @@ impl World {
         self.state = s;
         let np = self.nl.len();
         self.pout.resize(np, [0.0; 4]);
-        self.proll.resize(np, RollDashpot::default());
+        self.roll.items.resize(np, RollItem::default());
+        self.roll.count.resize(np.div_ceil(PAIR_CHUNK), 0);
+        self.plive.clear();
+        self.plive.resize(np, 1);
     }
 
     /// Forces must be recomputed before the next kick (after external state edits that
@@ -293,6 +346,17 @@ impl World {
     }
 
     fn run_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
+        // The hot loops index the grain arrays with the list's indices unchecked (`U`):
+        // a state edited without `resize_scratch` (or resized without a rebuild) gets its
+        // scratch and list brought up to date first. The library's own callers never
+        // reach these branches (they resize and rebuild themselves), so no result moves.
+        let ng = self.state.len();
+        if self.fx.len() != ng || self.wall_cn.len() != ng {
+            self.resize_scratch();
+        }
+        if self.nl.x0.len() != ng {
+            self.rebuild();
+        }
         if self.walls != self.walls_seen {
             // a wall was edited between runs (gate removed, wall shifted): the stored forces
             // are stale for the first half kick
@@ -369,10 +433,14 @@ impl World {
         let nl = &mut self.nl;
         let np = nl.pi.len();
         let lx = self.periodic_x.unwrap_or(0.0);
-        let (pi, pj, shift, cn, rr) = (&nl.pi, &nl.pj, &nl.shift, &nl.cn, &nl.r_roll);
+        let (pi, pj, shift, cn, rr) = (U(&nl.pi[..]), U(&nl.pj[..]), U(&nl.shift[..]), U(&nl.cn[..]), U(&nl.r_roll[..]));
+        let n_grains = s.len();
+        debug_assert!(nl.pj.iter().all(|&j| (j as usize) < n_grains));
         let hist = Ptr(nl.hist.as_mut_ptr());
-        let (pout, proll) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.proll.as_mut_ptr()));
-        let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
+        let (pout, ritems) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.roll.items.as_mut_ptr()));
+        debug_assert_eq!(self.plive.len(), np);
+        let live = Ptr(self.plive.as_mut_ptr());
+        let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
         chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
             for k in lo..hi {
@@ -381,9 +449,12 @@ impl World {
                 let dy = y[i] - y[j];
                 let rsq = dx * dx + dy * dy;
                 let radsum = r[i] + r[j];
-                // cheapest rejection first: separated → drop history
+                // cheapest rejection first: separated → drop history (once: a pair found
+                // separated before has nothing left to drop)
                 if rsq >= radsum * radsum {
                     unsafe {
+                        if live.get(k) == 0 { continue; }
+                        live.set(k, 0);
                         let h = hist.get(k);
                         if h != ContactState::default() {
                             if L {
@@ -394,7 +465,6 @@ impl World {
                             hist.set(k, ContactState::default());
                         }
                         pout.set(k, [0.0; 4]);
-                        if IMP { proll.set(k, RollDashpot::default()); }
                     }
                     continue;
                 }
@@ -419,11 +489,15 @@ impl World {
                     cn: cn[k],
                 };
                 unsafe {
+                    live.set(k, 1);
                     let mut h = hist.get(k);
                     let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
                     hist.set(k, h);
                     pout.set(k, [o.f.x, o.f.y, o.t_i, o.t_j]);
-                    if IMP { proll.set(k, o.roll); }
+                    if IMP && o.roll.c > 0.0 {
+                        ritems.set(lo + part.n_roll[0] as usize, RollItem { i: i as u32, j: j as u32, d: o.roll });
+                        part.n_roll[0] += 1;
+                    }
                     if L {
                         part.ledger.normal_damping += o.work.normal;
                         part.ledger.tangential += o.work.tangential;
@@ -434,17 +508,18 @@ impl World {
             part
         });
         let mut total = Partial::default();
-        for p in &self.partials {
+        for (c, p) in self.partials.iter().enumerate() {
             total.merge(p);
+            self.roll.count[c] = p.n_roll[0];
         }
         let t_gather = Instant::now();
         // gather per grain, in increasing pair order
         let n = s.len();
         let g = self.params.gravity;
-        let (istart, jstart, jlist) = (&nl.istart, &nl.jstart, &nl.jlist);
-        let pout = &self.pout[..];
+        let (istart, jstart, jlist) = (U(&nl.istart[..]), U(&nl.jstart[..]), &nl.jlist);
+        let pout = U(&self.pout[..]);
         let (fx, fy, tq) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()));
-        let m = &s.m[..];
+        let m = U(&s.m[..]);
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             for a in lo..hi {
                 let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
@@ -482,16 +557,18 @@ impl World {
         let mut total = Partial::default();
         self.release_inactive_walls::<R, IMP, L>(&mut total);
         if self.walls.iter().all(|w| !w.active) {
+            self.roll.wcount.fill(0);
             return total;
         }
         let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
         let s = &self.state;
         let n = s.len();
         let walls = &self.walls;
-        let (x, y, vx, vy, w, r) = (&s.x[..], &s.y[..], &s.vx[..], &s.vy[..], &s.w[..], &s.r[..]);
-        let wcn = &self.wall_cn[..];
+        let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
+        let wcn = U(&self.wall_cn[..]);
         let hist = Ptr(self.wall_hist.as_mut_ptr());
-        let (fx, fy, tq, wroll) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.wroll.as_mut_ptr()));
+        let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
+        let live = Ptr(self.wlive.as_mut_ptr());
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
             for (wi, wall) in walls.iter().enumerate() {
@@ -502,7 +579,8 @@ impl World {
                     let overlap = r[a] - wall.distance(p);
                     if overlap <= 0.0 {
                         unsafe {
-                            if IMP { wroll.set(hk, RollDashpot::default()); }
+                            if live.get(hk) == 0 { continue; }
+                            live.set(hk, 0);
                             let h = hist.get(hk);
                             if h != ContactState::default() {
                                 if L {
@@ -532,13 +610,17 @@ impl World {
                         cn: wcn[a],
                     };
                     unsafe {
+                        live.set(hk, 1);
                         let mut h = hist.get(hk);
                         let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
                         hist.set(hk, h);
                         fx.set(a, fx.get(a) + o.f.x);
                         fy.set(a, fy.get(a) + o.f.y);
                         tq.set(a, tq.get(a) + o.t_i);
-                        if IMP { wroll.set(hk, o.roll); }
+                        if IMP && o.roll.c > 0.0 {
+                            witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
+                            part.n_roll[wi] += 1;
+                        }
                         part.wall_force[wi] -= o.f;
                         if L {
                             part.ledger.wall_normal += o.work.normal;
@@ -551,8 +633,12 @@ impl World {
             }
             part
         });
-        for p in &self.partials {
+        let nc = self.partials.len();
+        for (c, p) in self.partials.iter().enumerate() {
             total.merge(p);
+            for wi in 0..MAX_WALLS {
+                self.roll.wcount[wi * nc + c] = p.n_roll[wi];
+            }
         }
         total
     }
@@ -568,9 +654,6 @@ impl World {
                 continue;
             }
             if self.wall_cleared[wi] { continue; }
-            for r in &mut self.wroll[wi * n..(wi + 1) * n] {
-                *r = RollDashpot::default();
-            }
             for h in &mut self.wall_hist[wi * n..(wi + 1) * n] {
                 if L {
                     let (et, er) = Law::<R, IMP, L>::released(&coeffs, h);
@@ -693,6 +776,8 @@ impl World {
                 restored += 1;
             }
         }
+        self.plive.fill(1);
+        self.wlive.fill(1);
         self.forces_valid = false;
         restored
     }

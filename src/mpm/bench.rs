@@ -40,8 +40,10 @@ impl BenchResult {
     }
 }
 
-/// Run `steps` steps of the benchmark column on a pool of `threads` threads.
-pub fn run(threads: usize, steps: u64) -> BenchResult {
+/// Run the benchmark column on a pool of `threads` threads: `steps` steps, or with
+/// `steps = None`, blocks of 100 steps until at least `min_s` seconds have been timed (a
+/// measurement under a second is too short to be stable on a shared machine).
+pub fn run(threads: usize, steps: Option<u64>, min_s: f64) -> BenchResult {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().expect("thread pool");
     pool.install(|| {
         let params = MpmParams::default();
@@ -53,9 +55,18 @@ pub fn run(threads: usize, steps: u64) -> BenchResult {
         }
         col.solver.times = PhaseTimes::default();
         let clock = std::time::Instant::now();
-        for _ in 0..steps {
-            col.solver.step(&mut col.state, dt).expect("bench step");
+        let mut done = 0u64;
+        loop {
+            let k = steps.map_or(100, |s| s - done);
+            for _ in 0..k {
+                col.solver.step(&mut col.state, dt).expect("bench step");
+            }
+            done += k;
+            if steps.is_some() || clock.elapsed().as_secs_f64() >= min_s {
+                break;
+            }
         }
+        let steps = done;
         let wall_s = clock.elapsed().as_secs_f64();
         let points = col.state.points.len();
         BenchResult {
@@ -66,5 +77,26 @@ pub fn run(threads: usize, steps: u64) -> BenchResult {
             point_steps_per_s: points as Real * steps as Real / wall_s,
             phases: col.solver.times,
         }
+    })
+}
+
+/// Cost growth: the a = 1 benchmark column (same material, cells, 16 PPC) sized to about
+/// `points` points (area = points / 4e6 m²), released, `steps` steps timed after 5 warm-up
+/// steps. Returns (points, seconds per step).
+pub fn scaling_point(points: usize, threads: usize, steps: u64) -> (usize, f64) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().expect("thread pool");
+    pool.install(|| {
+        let params = MpmParams::default();
+        let mut col = column::build(&params, ColumnSpec::from_area(1.0, points as Real / 4e6)).expect("scaling column");
+        column::release(&mut col);
+        let dt = col.solver.dt(&col.state);
+        for _ in 0..5 {
+            col.solver.step(&mut col.state, dt).expect("scaling warm-up");
+        }
+        let clock = std::time::Instant::now();
+        for _ in 0..steps {
+            col.solver.step(&mut col.state, dt).expect("scaling step");
+        }
+        (col.state.points.len(), clock.elapsed().as_secs_f64() / steps.max(1) as f64)
     })
 }

@@ -359,15 +359,18 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
     proj.cache.sweep_stale(STALE_TMP_AGE);
     let mp = MultiProgress::with_draw_target(if opts.quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
     let jobs = opts.jobs.max(1); // the CLI refuses 0
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let in_set: HashSet<&String> = set.iter().collect();
     let mut done: HashMap<String, bool> = HashMap::new(); // id -> ok
-    let mut running: HashSet<String> = HashSet::new();
+    // running stage -> threads of its pool
+    let mut running: HashMap<String, usize> = HashMap::new();
     let (tx, rx) = mpsc::channel::<(String, Result<f64, String>)>();
     std::thread::scope(|scope| {
         loop {
             let mut progressed = false;
+            let mut ready: Vec<&String> = Vec::new();
             for id in &set {
-                if done.contains_key(id) || running.contains(id) {
+                if done.contains_key(id) || running.contains_key(id) {
                     continue;
                 }
                 let st = p.get(id).unwrap();
@@ -400,10 +403,23 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                         Lookup::Missing => {}
                     }
                 }
-                if running.len() >= jobs {
-                    continue;
+                if running.len() + ready.len() < jobs {
+                    ready.push(id);
                 }
-                running.insert(id.clone());
+            }
+            // Each stage runs in its own rayon pool: the cores not used by the stages
+            // already running, shared equally by the stages starting now (at least one
+            // thread each). Two small stages side by side then run single-threaded on
+            // one core each instead of both waking a 2-thread pool at every parallel
+            // region; a stage that runs alone gets every core. Results do not depend on
+            // the thread count (bit-identical), only the wall time does.
+            let mut free = cores.saturating_sub(running.values().sum::<usize>());
+            for (k, id) in ready.iter().enumerate() {
+                let id = *id;
+                let threads = (free / (ready.len() - k)).max(1);
+                free = free.saturating_sub(threads);
+                let st = p.get(id).unwrap();
+                running.insert(id.clone(), threads);
                 progressed = true;
                 let tx = tx.clone();
                 let pb = mp.add(ProgressBar::new(1000));
@@ -412,7 +428,10 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                 let keys = &keys;
                 let stage = st.clone();
                 scope.spawn(move || {
-                    let r = run_one(p, proj, &stage, keys, pb.clone());
+                    let r = match rayon::ThreadPoolBuilder::new().num_threads(threads).thread_name(|i| format!("stage-worker-{i}")).build() {
+                        Ok(pool) => pool.install(|| run_one(p, proj, &stage, keys, pb.clone())),
+                        Err(e) => Err(format!("cannot start a thread pool of {threads} thread(s): {e}")),
+                    };
                     pb.finish_and_clear();
                     let _ = tx.send((stage.id.clone(), r));
                 });
