@@ -97,10 +97,11 @@ pub fn load_pile(params: &MpmParams, spec: &MpmPileSpec, profile: &[(Real, Real)
 }
 
 /// Excite a loaded pile and run it until `stop`.
-pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, stop: &StopRule) -> Result<PileRun, MpmError> {
+/// `link`: largest centre distance [m] at which two points belong to the same mass (D01's
+/// MPM rule is 1.5 × the initial spacing; the stage passes 2 cells, the GIMP stencil).
+pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, stop: &StopRule, link: Real) -> Result<PileRun, MpmError> {
     let mut state = pile.state.clone();
     let lp = params.half_width();
-    let s = params.spacing();
     let y: Vec<Real> = state.points.iter().map(|p| p.x.y).collect();
     let m: Vec<Real> = state.points.iter().map(|p| p.mass).collect();
     let top = y.iter().fold(0.0, |a: Real, b| a.max(*b)) + lp;
@@ -114,7 +115,7 @@ pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, 
     let g = params.gravity;
     let rec = |st: &State| -> Sample {
         let e = energies(st, &el, g);
-        let f = front_of_points(&st.points, lp, s);
+        let f = front_of_points(&st.points, lp, link / 1.5);
         Sample { t: st.t, l: f.length, h: f.height, ek: e.kinetic_grid, ekx: e.kinetic_x, eky: e.kinetic_y, erot: 0.0 }
     };
     let mut samples = vec![rec(&state)];
