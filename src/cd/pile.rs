@@ -199,3 +199,59 @@ pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0:
     let e = w.energies();
     Ok(ImpactResult { runout: (lf - width) / width, com_shift: (com(&w.state) - x0) / width, dissipated: w.ledger.dissipated(), ek0, ek_final: e.ek + e.erot, stats: w.stats, wall_s })
 }
+
+/// Excite a pile at rest (grains from the DEM deposit: the same geometry seeds every
+/// method) with `profile` carrying `e0` [J/m] and run it with the adaptive step
+/// h = min(`params.dt`, 0.4 alert / v_max) until `stop` (figures.md SC-PILE, PILE-CD).
+pub fn run_excited_pile(
+    pile: &State,
+    params: &CdParams,
+    profile: crate::analysis::pile::Profile,
+    e0: Real,
+    stop: &crate::analysis::pile::StopRule,
+) -> Result<crate::dem::pile::PileRun, CdError> {
+    use crate::analysis::front::{Body, Link, front};
+    use crate::analysis::pile::{Sample, excitation, kinetic};
+    let mut s = pile.clone();
+    s.stop();
+    let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
+    let vx = excitation(profile, &s.y, &s.m, top, e0);
+    let e0_check = kinetic(&s.m, &vx) / e0;
+    s.vx = vx;
+    let dbar = 2.0 * s.r.iter().sum::<Real>() / s.len().max(1) as Real;
+    let link = Link::Contact { gap: 0.01 * dbar };
+    let h_max = params.dt;
+    let mut w = World::new(params.clone(), s, vec![Wall::floor(0.0), Wall::left(0.0)], None)?;
+    let g = params.gravity;
+    let rec = |w: &World| -> Sample {
+        let st = &w.state;
+        let f = front(&Body { x: &st.x, y: &st.y, half: &st.r, mass: &st.m }, link);
+        let ekx = kinetic(&st.m, &st.vx);
+        let eky = kinetic(&st.m, &st.vy);
+        let erot: Real = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
+        Sample { t: w.t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
+    };
+    let mut samples = vec![rec(&w)];
+    let l0 = samples[0].l;
+    let dts = stop.dt_sample(g);
+    let mut stopped = false;
+    let mut next = dts;
+    loop {
+        while w.t < next - 1e-12 {
+            let h = w.adapt_dt(h_max).min(next - w.t).max(1e-9);
+            w.params.dt = h;
+            w.step()?;
+        }
+        next += dts;
+        samples.push(rec(&w));
+        if stop.done(&samples, e0, g) {
+            stopped = true;
+            break;
+        }
+        if stop.expired(w.t, g) {
+            break;
+        }
+    }
+    let st = &w.state;
+    Ok(crate::dem::pile::PileRun { samples, l0, e0, e0_check, stopped, steps: w.step_count, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()) })
+}

@@ -1,12 +1,16 @@
-//! Pile preparation (figures.md SC-PILE, stage P5): pour grains into a box of given
-//! width, then shift the right-hand wall far to the right so the grains spread, and let
-//! them come to rest. Reports L_0 (main mass, D01), H_0 and the surface slope.
+//! Pile preparation (figures.md SC-PILE, stage P5) and the DEM pile run under a horizontal
+//! excitation (R7/R8). Preparation follows the chapter: grains are poured into a box of
+//! given width, the right-hand wall is shifted far to the right, and the pile relaxes until
+//! every grain is at rest (stopping criterion: (E_k + E_rot)/E_p < `settle_ratio` and the
+//! fastest grain slower than `settle_speed` √(g d̄), checked every 1 ms of simulated time).
 
 use crate::analysis::front::{Body, Link, front};
+use crate::analysis::pile::{Profile, Sample, StopRule, excitation, kinetic};
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
-use crate::dem::prep::{DepositionParams, ballistic_deposition, box_walls, settle};
+use crate::dem::prep::{DepositionParams, ballistic_deposition, box_walls, quench};
 use crate::dem::state::State;
+use crate::dem::walls::Wall;
 use crate::dem::world::World;
 use crate::math::Real;
 use serde::{Deserialize, Serialize};
@@ -19,64 +23,140 @@ pub struct PileParams {
     pub deposition: DepositionParams,
     /// New right-wall position as a multiple of the box width.
     pub shift_to: Real,
-    /// Settling criterion after the shift, (E_k+E_rot)/E_p.
+    /// Rest criterion after the shift: (E_k + E_rot)/E_p below this …
     pub settle_ratio: Real,
-    /// Cap on the spreading time [s].
+    /// … and every grain slower than this many √(g d̄).
+    pub settle_speed: Real,
+    /// Shortest relaxation after the shift [s].
+    pub min_time: Real,
+    /// Cap on the relaxation time [s]; a pile not at rest by then is reported unsettled
+    /// (and refused by the excitation stages).
     pub max_time: Real,
 }
 
 impl Default for PileParams {
-    fn default() -> Self { Self { deposition: DepositionParams::default(), shift_to: 20.0, settle_ratio: 1e-6, max_time: 5.0 } }
+    fn default() -> Self {
+        Self { deposition: DepositionParams::default(), shift_to: 20.0, settle_ratio: 1e-6, settle_speed: 1e-3, min_time: 0.3, max_time: 5.0 }
+    }
 }
 
 /// A prepared pile.
 #[derive(Debug, Clone)]
 pub struct Pile {
-    /// Grains at rest.
+    /// Grains at rest (main mass and any grain that rolled away).
     pub state: State,
     /// L_0: right edge of the main mass [m].
     pub l0: Real,
     /// H_0: top of the main mass [m].
     pub h0: Real,
-    /// Surface slope [deg] from a line fit of the surface between 0.2 and 0.8 L_0.
-    pub slope_deg: Real,
-    /// Whether the spreading pile reached the settling criterion.
+    /// Whether the rest criterion was met.
     pub settled: bool,
+    /// Relaxation time after the shift [s].
+    pub relax_time: Real,
+    /// Final (E_k + E_rot)/E_p.
+    pub ke_over_ep: Real,
+    /// Final largest grain speed [m/s].
+    pub v_max: Real,
 }
 
-/// Surface angle: highest grain top per bin of width d̄, fitted over x ∈ [0.2, 0.8] L.
-pub fn surface_slope_deg(s: &State, l: Real) -> Real {
-    let d = 2.0 * s.radius_stats().1;
-    let nb = ((l / d).ceil() as usize).max(1);
-    let mut top = vec![Real::NEG_INFINITY; nb];
-    for i in 0..s.len() {
-        let b = ((s.x[i] / d).max(0.0) as usize).min(nb - 1);
-        top[b] = top[b].max(s.y[i] + s.r[i]);
-    }
-    let pts: Vec<(Real, Real)> = (0..nb)
-        .map(|b| ((b as Real + 0.5) * d, top[b]))
-        .filter(|&(x, y)| y.is_finite() && x >= 0.2 * l && x <= 0.8 * l)
-        .collect();
-    if pts.len() < 2 { return 0.0; }
-    let n = pts.len() as Real;
-    let mx = pts.iter().map(|p| p.0).sum::<Real>() / n;
-    let my = pts.iter().map(|p| p.1).sum::<Real>() / n;
-    let cov: Real = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    let var: Real = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    (-cov / var).atan().to_degrees()
+fn v_max(s: &State) -> Real {
+    (0..s.len()).map(|i| (s.vx[i] * s.vx[i] + s.vy[i] * s.vy[i]).sqrt()).fold(0.0, Real::max)
 }
 
-/// Pour `radii` into the box, shift the right wall, settle.
+/// Pour `radii` into the box, shift the right wall, relax to rest.
 pub fn prepare_pile(radii: &[Real], params: &DemParams, pp: &PileParams) -> Result<Pile, DemError> {
     let (s, _) = ballistic_deposition(radii, params, &pp.deposition)?;
     let width = pp.deposition.width;
     let mut walls = box_walls(width);
     walls[2].origin.x = pp.shift_to * width;
     let mut w = World::new(params.clone(), s, walls, None)?;
-    let rep = settle(&mut w, pp.settle_ratio, 0.05, pp.max_time)?;
+    let dbar = 2.0 * w.state.radius_stats().1;
+    let v_rest = pp.settle_speed * (params.gravity * dbar).sqrt();
+    w.run_until(pp.min_time)?;
+    let (mut r, mut vm);
+    loop {
+        let e = w.energies();
+        r = (e.ek() + e.erot) / e.ep.max(1e-300);
+        vm = v_max(&w.state);
+        if (r < pp.settle_ratio && vm < v_rest) || w.t >= pp.max_time {
+            break;
+        }
+        w.run_until(w.t + 1e-3)?;
+    }
+    let settled = r < pp.settle_ratio && vm < v_rest;
+    let relax_time = w.t;
     let s = w.state;
-    let d = 2.0 * s.radius_stats().1;
-    let f = front(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, Link::Contact { gap: 0.01 * d });
-    let slope_deg = surface_slope_deg(&s, f.length);
-    Ok(Pile { l0: f.length, h0: f.height, slope_deg, settled: rep.converged, state: s })
+    let f = front(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, Link::Contact { gap: 0.01 * dbar });
+    Ok(Pile { l0: f.length, h0: f.height, settled, relax_time, ke_over_ep: r, v_max: vm, state: s })
+}
+
+/// A finished pile run (any method).
+#[derive(Debug, Clone)]
+pub struct PileRun {
+    /// Time series.
+    pub samples: Vec<Sample>,
+    /// L_0 of the run's own measure [m].
+    pub l0: Real,
+    /// Input energy [J/m].
+    pub e0: Real,
+    /// Σ ½ m v_x² at t = 0 / E_0.
+    pub e0_check: Real,
+    /// Whether the stopping rule ended the run.
+    pub stopped: bool,
+    /// Steps taken.
+    pub steps: u64,
+    /// Final body positions and half-sizes (x, y, half) for snapshots.
+    pub final_bodies: (Vec<Real>, Vec<Real>, Vec<Real>),
+}
+
+/// Walls of a pile run: the base and the left wall only (the right wall is gone).
+pub fn pile_walls() -> Vec<Wall> { vec![Wall::floor(0.0), Wall::left(0.0)] }
+
+/// Excite a pile at rest with `profile` carrying `e0` [J/m] and run it until `stop`.
+pub fn run_pile(pile: &State, params: &DemParams, profile: Profile, e0: Real, stop: &StopRule) -> Result<PileRun, DemError> {
+    let mut s = pile.clone();
+    s.stop();
+    let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
+    let vx = excitation(profile, &s.y, &s.m, top, e0);
+    let e0_check = kinetic(&s.m, &vx) / e0;
+    s.vx = vx;
+    let dbar = 2.0 * s.radius_stats().1;
+    let link = Link::Contact { gap: 0.01 * dbar };
+    let mut p = params.clone();
+    p.ledger = false;
+    let mut w = World::new(p, s, pile_walls(), None)?;
+    let g = params.gravity;
+    let rec = |w: &World| -> Sample {
+        let st = &w.state;
+        let f = front(&Body { x: &st.x, y: &st.y, half: &st.r, mass: &st.m }, link);
+        let ekx = kinetic(&st.m, &st.vx);
+        let eky = kinetic(&st.m, &st.vy);
+        let erot: Real = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
+        Sample { t: w.t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
+    };
+    let mut samples = vec![rec(&w)];
+    let l0 = samples[0].l;
+    let dts = stop.dt_sample(g);
+    let mut stopped = false;
+    loop {
+        w.run_until(w.t + dts)?;
+        samples.push(rec(&w));
+        if stop.done(&samples, e0, g) {
+            stopped = true;
+            break;
+        }
+        if stop.expired(w.t, g) {
+            break;
+        }
+    }
+    let st = &w.state;
+    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: w.steps, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()) })
+}
+
+/// Settle the grains of a prepared pile again with other walls or parameters (kinetic
+/// damping): used by tests.
+pub fn requench(s: &State, params: &DemParams, walls: Vec<Wall>, ratio: Real) -> Result<State, DemError> {
+    let mut w = World::new(params.clone(), s.clone(), walls, None)?;
+    quench(&mut w, ratio, 20_000)?;
+    Ok(w.state)
 }

@@ -30,6 +30,7 @@ pub mod grid;
 pub mod material;
 pub mod params;
 pub mod particles;
+pub mod pile;
 pub mod preflight;
 pub mod shape;
 pub mod solver;

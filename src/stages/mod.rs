@@ -18,6 +18,7 @@ pub mod dem_stages;
 pub mod fit_stage;
 pub mod laws;
 pub mod mpm_stages;
+pub mod pile_stages;
 pub mod plot;
 pub mod psd;
 pub mod snapshot;
@@ -122,7 +123,9 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         dem_stages::SHEAR_KIND,
         dem_stages::COMPRESS_KIND,
         dem_stages::WP_KIND,
-        dem_stages::PILE_KIND,
+        pile_stages::PREP_KIND,
+        pile_stages::RUN_KIND,
+        pile_stages::RUNOUT_KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
         cd_stages::SHEAR_KIND,
