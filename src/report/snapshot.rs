@@ -58,6 +58,8 @@ pub struct Snapshot<'a> {
     pub field: Option<Field<'a>>,
     /// Bodies drawn black (e.g. the fixed layers of the shear cell).
     pub black: Option<&'a [bool]>,
+    /// Uniform fill when there is no field (CSS colour; default grey-blue).
+    pub fill: Option<&'static str>,
     /// Walls and other lines.
     pub segments: Vec<Segment>,
     /// View window (x0, x1, y0, y1) [m]; from the data when absent.
@@ -129,7 +131,7 @@ impl Snapshot<'_> {
                 let (r, g, b) = colormap(t);
                 format!("#{r:02x}{g:02x}{b:02x}")
             } else {
-                "#7a9cc6".to_string()
+                self.fill.unwrap_or("#7a9cc6").to_string()
             };
             match self.shape {
                 Shape::Disk => {
@@ -220,6 +222,7 @@ mod tests {
             shape: Shape::Disk,
             field: Some(Field { values: &v, label: "|v| [m/s]".into(), range: (0.0, 1.0) }),
             black: None,
+            fill: None,
             segments: vec![Segment { a: (0.0, 0.0), b: (0.0, 0.002), color: "black", width: 2.0, dashed: false }],
             view: Some((0.0, 0.004, 0.0, 0.002)),
             width_px: 400.0,
