@@ -239,3 +239,9 @@ mod stop_tests {
         assert_eq!(super::stop_time(&t, &l, 0.2), 2.0);
     }
 }
+
+/// L(t) of the main mass for each linking gap of `gaps` [m] (the gap-sensitivity table
+/// of D01): bodies linked when their edges are within the gap.
+pub fn lengths_for_gaps(body: &Body, gaps: &[f64]) -> Vec<f64> {
+    gaps.iter().map(|&g| front(body, Link::Contact { gap: g }).length).collect()
+}

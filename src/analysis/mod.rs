@@ -1,3 +1,9 @@
 //! Analyses shared by every method: flow front and height (D01, D03), energies, packing.
+pub mod cloud;
+pub mod failure;
 pub mod front;
+pub mod inertial;
+pub mod runout;
+pub mod stop;
+pub mod voronoi;
 pub mod pile;

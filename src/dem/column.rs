@@ -3,7 +3,10 @@
 //! snapshots at requested times, until a stop criterion. Reports wall time per run for the
 //! work-precision sweep.
 
-use crate::analysis::front::{Body, Link, front};
+use crate::analysis::cloud::Cloud;
+use crate::analysis::front::{Body, Link, front, lengths_for_gaps};
+use crate::analysis::inertial::{Grain, coarse_grained};
+use crate::analysis::stop::{StopRule, Verdict};
 use crate::dem::energy::Ledger;
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
@@ -35,11 +38,29 @@ pub struct CollapseParams {
     /// Domain end: a floor-level right wall far away keeps escaping grains [L_0 multiples].
     /// 0 = no right wall (the floor is infinite).
     pub right_wall_at: Real,
+    /// The stated stop rule shared with the MPM (`crate::analysis::stop`): kinetic energy
+    /// AND front speed below thresholds, bounded in time. When set it replaces `t_min`,
+    /// `t_max` and `stop_ke_ratio` (the energy-only rule, kept for the calibration runs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop: Option<StopRule>,
+    /// Extra linking gaps [d̄] whose L(t) is recorded beside the main one (D01 sensitivity).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub link_gap_sensitivity: Vec<Real>,
+    /// Coarse-graining cell of the inertial-number statistics [d̄] (D08).
+    #[serde(skip_serializing_if = "crate::analysis::inertial::is_default_cell")]
+    pub inertial_cell: Real,
+}
+
+impl CollapseParams {
+    /// The stop rule in force.
+    pub fn rule(&self) -> StopRule {
+        self.stop.unwrap_or(StopRule { ke_ratio: self.stop_ke_ratio, front_speed: f64::INFINITY, window: 0.0, t_min: self.t_min, t_max: self.t_max })
+    }
 }
 
 impl Default for CollapseParams {
     fn default() -> Self {
-        Self { t_max: 10.0, t_min: 1.0, stop_ke_ratio: 1e-6, sample_every: 0.01, snapshots: vec![], link_gap: 0.01, right_wall_at: 0.0 }
+        Self { t_max: 10.0, t_min: 1.0, stop_ke_ratio: 1e-6, sample_every: 0.01, snapshots: vec![], link_gap: 0.01, right_wall_at: 0.0, stop: None, link_gap_sensitivity: vec![], inertial_cell: 3.0 }
     }
 }
 
@@ -68,6 +89,8 @@ pub struct Sample {
     pub ledger: Ledger,
     /// Energy balance residual E_0 − (E_p+E_k+E_rot+elastic+dissipated) [J/m].
     pub residual: Real,
+    /// Coarse-grained inertial-number statistics (D08, `crate::analysis::inertial`).
+    pub inertial: crate::analysis::inertial::Stats,
 }
 
 /// Grain positions and velocities at one time.
@@ -125,6 +148,10 @@ pub struct CollapseResult {
     pub preflight: Preflight,
     /// Largest overlap / d seen at the samples.
     pub max_overlap_fraction: Real,
+    /// L(t) [m] for each gap of `link_gap_sensitivity`, one row per sample.
+    pub gap_lengths: Vec<Vec<Real>>,
+    /// d̄ (volume mean) of the column [m].
+    pub d_mean: Real,
 }
 
 impl CollapseResult {
@@ -134,14 +161,20 @@ impl CollapseResult {
     pub fn delta_l(&self) -> Real { (self.runout() - self.l0) / self.l0 }
 }
 
-fn sample(w: &World, t0: Real, gap: Real) -> Sample {
+/// The grains of a state as an analysis [`Cloud`].
+pub fn cloud(s: &State, t: Real) -> Cloud {
+    Cloud { t, x: s.x.clone(), y: s.y.clone(), half: s.r.clone(), mass: s.m.clone(), vx: s.vx.clone(), vy: s.vy.clone() }
+}
+
+fn sample(w: &World, t0: Real, gap: Real, grain: Grain) -> Sample {
     let s = &w.state;
     let f = front(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, Link::Contact { gap });
+    let inertial = coarse_grained(&cloud(s, w.t - t0), grain);
     let b = w.balance();
     let e = b.energies;
     Sample {
         t: w.t - t0, length: f.length, height: f.height, n_main: f.n_main, ep: e.ep, ekx: e.ekx, eky: e.eky, erot: e.erot,
-        elastic: e.elastic(), ledger: w.ledger, residual: if w.params.ledger { b.residual } else { 0.0 },
+        elastic: e.elastic(), ledger: w.ledger, residual: if w.params.ledger { b.residual } else { 0.0 }, inertial,
     }
 }
 
@@ -162,7 +195,12 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
     let mut snaps: Vec<Real> = cp.snapshots.iter().map(|s| s * tau_c).collect();
     snaps.sort_by(|a, b| a.partial_cmp(b).unwrap());
     let mut snapshots = Vec::new();
-    let mut samples = vec![sample(&w, 0.0, gap)];
+    let grain = Grain { cell: cp.inertial_cell * d_mean, d: d_mean, rho_s: params.density, g };
+    let gaps: Vec<Real> = cp.link_gap_sensitivity.iter().map(|k| k * d_mean).collect();
+    let gap_row = |w: &World| lengths_for_gaps(&Body { x: &w.state.x, y: &w.state.y, half: &w.state.r, mass: &w.state.m }, &gaps);
+    let rule = cp.rule();
+    let mut gap_lengths = vec![gap_row(&w)];
+    let mut samples = vec![sample(&w, 0.0, gap, grain)];
     let dt_sample = (cp.sample_every * tau_c).max(params.dt);
     let started = Instant::now();
     let mut next_snap = 0;
@@ -178,21 +216,24 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
             next_snap += 1;
         }
         max_ov = max_ov.max(w.info.max_overlap_fraction);
-        let smp = sample(&w, 0.0, gap);
+        let smp = sample(&w, 0.0, gap, grain);
         let ke = smp.ekx + smp.eky + smp.erot;
         samples.push(smp);
-        if w.t >= cp.t_min * tau_c && ke < cp.stop_ke_ratio * ep0 {
-            break StopReason::AtRest;
-        }
-        if w.t >= cp.t_max * tau_c {
-            break StopReason::TimeLimit;
+        gap_lengths.push(gap_row(&w));
+        let t: Vec<Real> = samples.iter().map(|v| v.t).collect();
+        let l: Vec<Real> = samples.iter().map(|v| v.length).collect();
+        let h: Vec<Real> = samples.iter().map(|v| v.height).collect();
+        match rule.verdict(&t, &l, &h, ke / ep0, tau_c, d_mean) {
+            Verdict::AtRest => break StopReason::AtRest,
+            Verdict::TimeLimit => break StopReason::TimeLimit,
+            Verdict::Running => {}
         }
     };
     let wall_s = started.elapsed().as_secs_f64();
     snapshots.push(Snapshot { t: w.t, state: w.state.clone() });
     Ok(CollapseResult {
         l0: column.l0, h0: column.h0, tau_c, samples, snapshots, stop, steps: w.steps, dt: params.dt, wall_s,
-        timers: w.timers, preflight, max_overlap_fraction: max_ov,
+        timers: w.timers, preflight, max_overlap_fraction: max_ov, gap_lengths, d_mean,
     })
 }
 

@@ -22,7 +22,10 @@ use super::params::MpmParams;
 use super::particles::{self, Point};
 use super::solver::{PhaseTimes, Solver, State};
 use super::watchdog::EnergyWatch;
-use crate::analysis::front::{Body, Front, Link, front, main_mass};
+use crate::analysis::cloud::Cloud;
+use crate::analysis::front::{Body, Front, Link, front, lengths_for_gaps, main_mass};
+use crate::analysis::inertial::{Grain, coarse_grained};
+use crate::analysis::stop::{StopRule, Verdict};
 use crate::math::Real;
 
 /// Column area of the DEM columns (figures.md SC-COL: ≈3000 grains, φ ≈ 0.8) [m²].
@@ -198,6 +201,22 @@ pub struct CollapseOptions {
     pub snapshot_tau: Vec<Real>,
     /// Skip the geostatic stage (start stress free; for tests).
     pub skip_geostatic: bool,
+    /// The stated stop rule shared with the DEM (`crate::analysis::stop`). When set it
+    /// replaces the rule above (`stop_ke_ratio` OR a still front, kept for the
+    /// work-precision runs); its kinetic energy is the grid's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop: Option<StopRule>,
+    /// D01 linking gap [d̄ = material.grain_diameter]: points, as bodies of half-size l_p,
+    /// are linked when their edges are within the gap (the DEM rule). None: the older
+    /// 1.5 × initial spacing centre distance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link_gap: Option<Real>,
+    /// Extra linking gaps [d̄] whose L(t) is recorded beside the main one.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub link_gap_sensitivity: Vec<Real>,
+    /// Coarse-graining cell of the method-agnostic inertial-number statistics [d̄] (D08).
+    #[serde(skip_serializing_if = "crate::analysis::inertial::is_default_cell")]
+    pub inertial_cell: Real,
 }
 
 impl Default for CollapseOptions {
@@ -212,6 +231,10 @@ impl Default for CollapseOptions {
             max_time_tau: 12.0,
             snapshot_tau: Vec::new(),
             skip_geostatic: false,
+            stop: None,
+            link_gap: None,
+            link_gap_sensitivity: Vec::new(),
+            inertial_cell: 3.0,
         }
     }
 }
@@ -238,6 +261,8 @@ pub struct Sample {
     pub e: Energies,
     /// Inertial-number statistics (computed for every model as a diagnostic).
     pub inertial: InertialStats,
+    /// Coarse-grained, lithostatic-pressure I statistics: the DEM's own measure (D08).
+    pub inertial_cg: crate::analysis::inertial::Stats,
 }
 
 /// Inertial number I = γ̇ d̄/√(p/ρ_s) over the points at one time (figures.md D08, fig4-15):
@@ -256,6 +281,11 @@ pub struct InertialStats {
     pub flowing_fraction: Real,
     /// Mass fraction of points with p ≤ 0 (stress free) [-].
     pub stress_free_fraction: Real,
+    /// Mass-weighted median of I over flowing points [-].
+    pub median_flowing: Real,
+    /// Mass-weighted mean of I over flowing points with p ≥ ρ_s g d̄ (at least about one
+    /// grain of overburden: the surface layer, where p → 0 and I → i_max, left out) [-].
+    pub mean_flowing_deep: Real,
 }
 
 /// Inertial number of every point (diagnostic; the μ(I) models compute the same inside the
@@ -271,6 +301,8 @@ pub fn inertial_numbers(state: &State, m: &super::params::Material) -> Vec<Real>
 /// Statistics of I (see [`InertialStats`]).
 pub fn inertial_stats(state: &State, m: &super::params::Material, g: Real) -> InertialStats {
     let thr = 1e-3 * (g / m.grain_diameter).sqrt();
+    let p_deep = m.grain_density * g * m.grain_diameter;
+    let (mut mdeep, mut sdeep) = (0.0, 0.0);
     let mut flowing: Vec<(Real, Real)> = Vec::new();
     let (mut mass, mut mflow, mut sum, mut max, mut mfree) = (0.0, 0.0, 0.0, 0.0f64, 0.0);
     for p in &state.points {
@@ -287,6 +319,10 @@ pub fn inertial_stats(state: &State, m: &super::params::Material, g: Real) -> In
             mflow += p.mass;
             sum += p.mass * i;
             flowing.push((i, p.mass));
+            if pr >= p_deep {
+                mdeep += p.mass;
+                sdeep += p.mass * i;
+            }
         }
     }
     if flowing.is_empty() {
@@ -294,7 +330,11 @@ pub fn inertial_stats(state: &State, m: &super::params::Material, g: Real) -> In
     }
     flowing.sort_by(|a, b| a.0.total_cmp(&b.0));
     let k = ((flowing.len() as Real * 0.95).ceil() as usize).clamp(1, flowing.len()) - 1;
-    InertialStats { mean_flowing: sum / mflow, p95_flowing: flowing[k].0, max, flowing_fraction: mflow / mass, stress_free_fraction: mfree / mass }
+    let median = crate::analysis::inertial::weighted_stats(flowing.clone(), 0.0).median;
+    InertialStats {
+        mean_flowing: sum / mflow, p95_flowing: flowing[k].0, max, flowing_fraction: mflow / mass, stress_free_fraction: mfree / mass,
+        median_flowing: median, mean_flowing_deep: if mdeep > 0.0 { sdeep / mdeep } else { 0.0 },
+    }
 }
 
 
@@ -323,6 +363,15 @@ pub struct Snapshot {
     pub eps_p: Vec<Real>,
     /// Inertial number [-] (D08; computed for every model in collapse runs).
     pub inertial: Vec<Real>,
+    /// Mass [kg/m].
+    pub mass: Vec<Real>,
+}
+
+impl Snapshot {
+    /// The points as an analysis [`Cloud`] of half-size `lp`.
+    pub fn cloud(&self, lp: Real) -> Cloud {
+        Cloud { t: self.t, x: self.x.clone(), y: self.y.clone(), half: vec![lp; self.x.len()], mass: self.mass.clone(), vx: self.vx.clone(), vy: self.vy.clone() }
+    }
 }
 
 /// Snapshot of a state (`inertial` is left as the μ(I) models store it; use
@@ -341,6 +390,7 @@ pub fn snapshot(state: &State) -> Snapshot {
         sxy: p.iter().map(|p| p.stress.xy).collect(),
         eps_p: p.iter().map(|p| p.eps_p).collect(),
         inertial: p.iter().map(|p| p.inertial).collect(),
+        mass: p.iter().map(|p| p.mass).collect(),
     }
 }
 
@@ -383,6 +433,12 @@ pub struct CollapseResult {
     pub wall_s: Real,
     /// Per-phase times (geostatic + collapse).
     pub times: PhaseTimes,
+    /// L(t) [m] for each gap of `link_gap_sensitivity`, one row per sample.
+    pub gap_lengths: Vec<Vec<Real>>,
+    /// The points at release and at the end.
+    pub initial: Snapshot,
+    /// See `initial`.
+    pub final_state: Snapshot,
 }
 
 /// Front of a state (D01).
@@ -396,6 +452,32 @@ pub fn front_of(state: &State, lp: Real, spacing: Real) -> Front {
     }
     let half = vec![lp; n];
     front(&Body { x: &x, y: &y, half: &half, mass: &m }, Link::Distance(1.5 * spacing))
+}
+
+/// Front of a state with an explicit linking rule, points as bodies of half-size `lp`.
+pub fn front_linked(state: &State, lp: Real, link: Link) -> Front {
+    let n = state.points.len();
+    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    for p in &state.points {
+        x.push(p.x.x);
+        y.push(p.x.y);
+        m.push(p.mass);
+    }
+    let half = vec![lp; n];
+    front(&Body { x: &x, y: &y, half: &half, mass: &m }, link)
+}
+
+/// L for each edge gap of `gaps` [m], points as bodies of half-size `lp`.
+pub fn lengths_linked(state: &State, lp: Real, gaps: &[Real]) -> Vec<Real> {
+    let n = state.points.len();
+    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    for p in &state.points {
+        x.push(p.x.x);
+        y.push(p.x.y);
+        m.push(p.mass);
+    }
+    let half = vec![lp; n];
+    lengths_for_gaps(&Body { x: &x, y: &y, half: &half, mass: &m }, gaps)
 }
 
 /// Front with links that follow the points' dilation: points i and j are linked when
@@ -494,9 +576,20 @@ pub fn run_collapse_with_progress(
     snap_times.sort_by(|a, b| a.total_cmp(b));
     let mut next_snap = 0usize;
     let mat = params.material.clone();
-    let record = |state: &State, series: &mut Vec<Sample>| -> Energies {
+    let d = mat.grain_diameter;
+    let link = match opts.link_gap {
+        Some(k) => Link::Contact { gap: k * d },
+        None => Link::Distance(1.5 * s),
+    };
+    let gaps: Vec<Real> = opts.link_gap_sensitivity.iter().map(|k| k * d).collect();
+    let grain = Grain { cell: opts.inertial_cell * d, d, rho_s: mat.grain_density, g };
+    let mut gap_lengths: Vec<Vec<Real>> = Vec::new();
+    let initial = snapshot_with(&col.state, &params.material);
+    let mut record = |state: &State, series: &mut Vec<Sample>| -> Energies {
         let e = energies(state, &el, g);
-        let f = front_of(state, lp, s);
+        let f = front_linked(state, lp, link);
+        gap_lengths.push(lengths_linked(state, lp, &gaps));
+        let inertial_cg = coarse_grained(&snapshot(state).cloud(lp), grain);
         let l_all = state.points.iter().map(|p| p.x.x + lp).fold(0.0, Real::max);
         series.push(Sample {
             t: state.t,
@@ -508,6 +601,7 @@ pub fn run_collapse_with_progress(
             l_q99: mass_quantile_x(state, 0.99) + lp,
             e,
             inertial: inertial_stats(state, &mat, g),
+            inertial_cg,
         });
         e
     };
@@ -530,14 +624,26 @@ pub fn run_collapse_with_progress(
                 progress(last, opts.max_time_tau * tau);
             }
             watch.check(&e, &col.state.points, col.state.step, col.state.t)?;
-            if col.state.t >= opts.min_time_tau * tau
+            if let Some(rule) = opts.stop {
+                let t: Vec<Real> = series.iter().map(|v| v.t).collect();
+                let l: Vec<Real> = series.iter().map(|v| v.l).collect();
+                let h: Vec<Real> = series.iter().map(|v| v.h).collect();
+                match rule.verdict(&t, &l, &h, e.kinetic_grid / e0.potential, tau, d) {
+                    Verdict::AtRest => {
+                        stopped = true;
+                        break;
+                    }
+                    Verdict::TimeLimit => break,
+                    Verdict::Running => {}
+                }
+            } else if col.state.t >= opts.min_time_tau * tau
                 && (e.kinetic_grid < opts.stop_ke_ratio * e0.potential || front_still(&series, opts, tau, e.kinetic_grid / e0.potential))
             {
                 stopped = true;
                 break;
             }
         }
-        if col.state.t >= opts.max_time_tau * tau {
+        if opts.stop.is_none() && col.state.t >= opts.max_time_tau * tau {
             record(&col.state, &mut series);
             break;
         }
@@ -547,7 +653,8 @@ pub fn run_collapse_with_progress(
         next_snap += 1;
     }
     let wall_s = clock.elapsed().as_secs_f64();
-    let final_front = front_of(&col.state, lp, s);
+    drop(record);
+    let final_front = front_linked(&col.state, lp, link);
     Ok(CollapseResult {
         spec: col.spec,
         points: col.state.points.len(),
@@ -563,6 +670,9 @@ pub fn run_collapse_with_progress(
         steps: col.state.step,
         wall_s,
         times: col.solver.times,
+        gap_lengths,
+        initial,
+        final_state: snapshot_with(&col.state, &params.material),
     })
 }
 

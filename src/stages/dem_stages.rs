@@ -368,6 +368,14 @@ impl Validate for CollapseStageParams {
         check_dem(&self.dem, self.stiffness_factor, &mut c);
         c.check(self.run.t_max > self.run.t_min, "run.t_max", self.run.t_max, "> run.t_min");
         c.positive("run.sample_every", self.run.sample_every);
+        if let Some(rule) = self.run.stop {
+            for (k, v, a) in rule.issues() {
+                c.fail(&format!("run.stop.{k}"), v, a);
+            }
+        }
+        c.check(self.run.link_gap >= 0.0, "run.link_gap", self.run.link_gap, "≥ 0 [d̄]");
+        c.check(self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()), "run.link_gap_sensitivity", format!("{:?}", self.run.link_gap_sensitivity), "gaps ≥ 0 [d̄]");
+        c.positive("run.inertial_cell", self.run.inertial_cell);
         c.issues
     }
 }
@@ -395,7 +403,38 @@ fn collapse_table(r: &CollapseResult) -> anyhow::Result<polars::prelude::DataFra
         ("ep_over_e0", s.iter().map(|v| v.ep / e0).collect()),
         ("ek_over_e0", s.iter().map(|v| (v.ekx + v.eky) / e0).collect()),
         ("ed_over_e0", s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).collect()),
+        ("i_cg_mean", s.iter().map(|v| v.inertial.mean).collect()),
+        ("i_cg_median", s.iter().map(|v| v.inertial.median).collect()),
+        ("i_cg_p95", s.iter().map(|v| v.inertial.p95).collect()),
+        ("i_cg_max", s.iter().map(|v| v.inertial.max).collect()),
+        ("i_cg_flowing_fraction", s.iter().map(|v| v.inertial.flowing_fraction).collect()),
     ])
+}
+
+/// D09: Voronoi packing fraction of the interior cells at release and at each snapshot,
+/// over the whole mass, inside the initial footprint (x < L_0) and beyond it.
+fn packing_table(col: &Column, r: &CollapseResult) -> anyhow::Result<(polars::prelude::DataFrame, f64, f64)> {
+    use crate::analysis::voronoi::{cells, packing_fraction};
+    let reach = 0.4 * r.d_mean; // interior: every vertex within r_i + 0.4 d̄ (analysis::voronoi)
+    let mut rows: Vec<[f64; 6]> = Vec::new();
+    let states = std::iter::once((0.0, &col.state)).chain(r.snapshots.iter().map(|s| (s.t, &s.state)));
+    for (t, st) in states {
+        let c = cells(&st.x, &st.y, &st.r, reach);
+        let (all, n) = packing_fraction(&c, &st.r, |_| true);
+        let (inside, _) = packing_fraction(&c, &st.r, |i| st.x[i] < r.l0);
+        let (outside, _) = packing_fraction(&c, &st.r, |i| st.x[i] >= r.l0);
+        rows.push([t / r.tau_c, all, inside, outside, n as f64, st.len() as f64]);
+    }
+    let col_of = |k: usize| rows.iter().map(|v| v[k]).collect::<Vec<f64>>();
+    let df = frame(vec![
+        ("t_over_tau_c", col_of(0)),
+        ("phi_voronoi", col_of(1)),
+        ("phi_voronoi_footprint", col_of(2)),
+        ("phi_voronoi_beyond_l0", col_of(3)),
+        ("interior_cells", col_of(4)),
+        ("grains", col_of(5)),
+    ])?;
+    Ok((df, rows[0][1], rows[rows.len() - 1][1]))
 }
 
 fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
@@ -433,6 +472,10 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("t_f_over_tau_c", t_f / r.tau_c)
         .scalar("t_kemax_over_tau_c", kmax.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN))
         .scalar("ed_over_e0_end", last.map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).unwrap_or(f64::NAN))
+        .scalar("w_frictional_over_e0_end", last.map(|v| v.ledger.frictional() / e0).unwrap_or(f64::NAN))
+        .scalar("w_collisional_over_e0_end", last.map(|v| v.ledger.collisional() / e0).unwrap_or(f64::NAN))
+        .scalar("erot_over_e0_end", last.map(|v| v.erot / e0).unwrap_or(f64::NAN))
+        .scalar("elastic_over_e0_end", last.map(|v| v.elastic / e0).unwrap_or(f64::NAN))
         .scalar("max_balance_residual_over_e0", max_res / e0)
         .scalar("max_overlap_fraction", r.max_overlap_fraction)
         .scalar("dt_s", r.dt)
@@ -446,6 +489,43 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         out.note(format!("Rolling friction μ_r = {} ({:?} model) from the joint calibration (calibrated).", p.dem.rolling.mu_r, p.dem.rolling.model));
     }
     out.checks.push(Claim::at_most("energy-balance", "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (figures.md D07: within 1 %)", 0.01, max_res / e0));
+    // Per-run analysis shared with the MPM (stages::column_analysis).
+    {
+        use crate::dem::column::cloud;
+        let phi = match ctx.input_opt("calibration") {
+            Some(c) => c.scalar("friction_angle_deg")?,
+            None => f64::NAN,
+        };
+        let at_tau = r.snapshots.iter().min_by(|a, b| (a.t - r.tau_c).abs().total_cmp(&(b.t - r.tau_c).abs())).filter(|s| (s.t / r.tau_c - 1.0).abs() < 0.05).map(|s| cloud(&s.state, s.t));
+        let fin = &r.snapshots[r.snapshots.len() - 1].state;
+        let tt: Vec<f64> = s.iter().map(|v| v.t).collect();
+        let ll: Vec<f64> = s.iter().map(|v| v.length).collect();
+        let hh: Vec<f64> = s.iter().map(|v| v.height).collect();
+        let ek: Vec<f64> = s.iter().map(|v| v.ekx + v.eky).collect();
+        let ep: Vec<f64> = s.iter().map(|v| v.ep).collect();
+        let ist: Vec<_> = s.iter().map(|v| v.inertial).collect();
+        super::column_analysis::analyse(&mut out, &super::column_analysis::Run {
+            method: "DEM", l0: r.l0, h0: r.h0, tau: r.tau_c, d: d_mean, t: &tt, l: &ll, h: &hh, ek: &ek, ep: &ep, inertial: &ist,
+            gaps: &p.run.link_gap_sensitivity, gap_lengths: &r.gap_lengths, link_gap: p.run.link_gap, at_tau: at_tau.as_ref(),
+            x_start: &col.state.x, x_end: &fin.x, mass: &col.state.m, phi_deg: phi, mu_grain: p.dem.grain.friction,
+            at_rest: matches!(r.stop, crate::dem::column::StopReason::AtRest), g: p.dem.gravity,
+        })?;
+        if s.len() > 1 {
+            out.claims.push(Claim::abs(
+                "motion-persists-6tau",
+                "DEM: \"some motion still persists along the free surface … up to t ≈ 6τ_c\" — end of the run by the stated stop rule (E_k < ke_ratio·E_0 and a still front), t_stop/τ_c (tolerance 1.5)",
+                6.0, last.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN), 1.5,
+            ));
+        }
+        let (pk, phi0, phi1) = packing_table(&col, &r)?;
+        out.table("packing", pk);
+        out.scalar("phi_voronoi_initial", phi0).scalar("phi_voronoi_final", phi1);
+        let rule = p.run.rule();
+        out.note(format!(
+            "Stop rule (shared with the MPM): after {} τ_c, E_k + E_rot < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: grains linked when their edges are within {} d̄ (D01; sensitivity table `link_gap_sensitivity`).",
+            rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max, p.run.link_gap
+        ));
+    }
     out.note(format!("{} grains, Δt = {:.3e} s, {} steps, stop: {:?}, wall {:.1} s; max overlap {:.3} % of d.", col.state.len(), r.dt, r.steps, r.stop, r.wall_s, 100.0 * r.max_overlap_fraction));
     if p.vtk {
         for (i, snap) in r.snapshots.iter().enumerate() {
@@ -486,7 +566,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "dem-collapse",
-    version: 3,
+    version: 5,
     about: "DEM granular column collapse: L(t), H(t), energy ledger, until at rest",
     params: typed::<CollapseStageParams>,
     run: run_collapse_stage,

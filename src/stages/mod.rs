@@ -12,6 +12,7 @@ use crate::pipeline::context::{Output, StageCtx};
 use crate::validate::Issue;
 
 pub mod calib;
+pub mod column_analysis;
 pub mod cd_stages;
 pub mod compare;
 pub mod dem_stages;
