@@ -127,7 +127,7 @@ pub enum Cmd {
         sets: Vec<String>,
     },
     /// Run one ad-hoc scene outside the pipeline: a DEM column (psd + column + run sections)
-    /// or, with `engine: cd`, a CD shear cell or pile.
+    /// or, with `engine: cd`, a CD shear cell or pile; with `engine: mpm`, an MPM column.
     Simulate {
         /// Scene file (YAML; see docs/pipeline.md).
         scene: PathBuf,
@@ -375,6 +375,7 @@ pub fn run_cli(cli: Cli) -> i32 {
             }
         }
         Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
+        Cmd::Simulate { scene, out, quiet } if crate::scene_mpm::is_mpm_scene(&scene) => crate::scene_mpm::simulate_mpm(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
         Cmd::Bench { engine, steps } => bench(engine, steps),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),

@@ -19,6 +19,7 @@ pub mod pipeline;
 pub mod report;
 pub mod sample;
 pub mod scene;
+pub mod scene_mpm;
 pub mod stages;
 pub mod validate;
 pub mod vtk;
