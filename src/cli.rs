@@ -56,6 +56,9 @@ pub enum BenchEngine {
     Mpm,
     /// CD deposit of the Siconos reference script (25 × 20 and 40 × 25 disks, h = 2e-3 s).
     Cd,
+    /// Per-stage table of the optional terms and outputs each scene enables, and the step
+    /// cost of its configuration against everything on (issue 12; README "Stability and cost").
+    LeaveOut,
 }
 
 /// Subcommands.
@@ -377,6 +380,13 @@ pub fn run_cli(cli: Cli) -> i32 {
         Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } if crate::scene_mpm::is_mpm_scene(&scene) => crate::scene_mpm::simulate_mpm(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
+        Cmd::Bench { engine: BenchEngine::LeaveOut, steps } => match load(&cli.pipeline, "quick", &[]) {
+            Ok(p) => crate::bench_leave_out::run(&p, steps.unwrap_or(2000)),
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
         Cmd::Bench { engine, steps } => bench(engine, steps),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
     }
@@ -500,5 +510,6 @@ fn bench(engine: BenchEngine, steps: Option<u64>) -> i32 {
             }
             0
         }
+        BenchEngine::LeaveOut => 2, // needs the pipeline: dispatched in run_cli
     }
 }

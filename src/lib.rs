@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod bench_leave_out;
 pub mod cli;
 pub mod fit;
 pub mod math;

@@ -163,3 +163,65 @@ fn refused_frictionless_mpm_base_really_leaves_the_grid() {
     let q = MpmParams::quick();
     assert!(granrepro::mpm::preflight::containment(&q, spec).is_ok());
 }
+
+// ---- leave-out proof: a scene pays only for what it uses ------------------------------
+
+use granrepro::dem::{DemParams, RollingDamping, State, Wall, World};
+
+/// A small bed of grains on a floor against a left wall (walls with friction), `steps` steps.
+fn bed(p: DemParams, steps: u64) -> World {
+    let r = 0.5e-3;
+    let mut s = State::new();
+    for row in 0..3 {
+        for col in 0..8 {
+            let x = (2.0 * col as f64 + (row % 2) as f64) * 1.01 * r + r;
+            s.insert(x, r + row as f64 * 1.9 * r, r * (1.0 - 0.01 * (col % 3) as f64), p.density);
+            let k = s.len() - 1;
+            s.vx[k] = 0.05 * ((k % 5) as f64 - 2.0);
+            s.w[k] = 10.0 * ((k % 3) as f64 - 1.0);
+        }
+    }
+    let mut w = World::new(p, s, vec![Wall::floor(0.0), Wall::left(0.0)], None).unwrap();
+    w.run(steps).unwrap();
+    w
+}
+
+#[test]
+fn a_scene_without_rolling_or_ledger_never_runs_those_paths() {
+    let steps = 2000;
+    let mut off = DemParams::default();
+    off.rolling.enabled = false;
+    off.ledger = false;
+    let w = bed(off.clone(), steps);
+    eprintln!("off: {:?}", w.paths);
+    assert_eq!((w.paths.rolling_forces, w.paths.rolling_dashpot, w.paths.ledger), (0, 0, 0));
+    // the counters do count: every force pass (steps + the initial one) and two dashpot
+    // sweeps per step when the terms are on
+    let on = bed(DemParams::default(), steps);
+    eprintln!("on: {:?}", on.paths);
+    assert_eq!(on.paths.rolling_forces, steps + 1);
+    assert_eq!(on.paths.ledger, steps + 1);
+    assert_eq!(on.paths.rolling_dashpot, 2 * steps);
+    // explicit dashpot: rolling forces, no implicit sweep
+    let mut ex = DemParams::default();
+    ex.dt = 1e-9;
+    ex.rolling.damping = RollingDamping::Explicit;
+    let e = bed(ex, 100);
+    assert_eq!((e.paths.rolling_forces, e.paths.rolling_dashpot), (101, 0));
+}
+
+#[test]
+fn rolling_spring_without_dashpot_skips_the_dashpot_sweep_bit_identically() {
+    // c_r = 0 (col-dem-no-rolling-damper): no implicit sweep is run, and the state is the
+    // same to the bit as with the explicit rule (nothing to damp either way)
+    let mut imp = DemParams::default();
+    imp.rolling.cr = 0.0;
+    let mut exp = imp.clone();
+    exp.rolling.damping = RollingDamping::Explicit;
+    let (a, b) = (bed(imp, 3000), bed(exp, 3000));
+    assert_eq!(a.paths.rolling_dashpot, 0);
+    assert!(a.paths.rolling_forces > 0);
+    assert_eq!(a.state.x, b.state.x);
+    assert_eq!(a.state.w, b.state.w);
+    assert_eq!(a.ledger.rolling.to_bits(), b.ledger.rolling.to_bits());
+}

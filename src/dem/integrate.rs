@@ -133,6 +133,7 @@ impl World {
     /// One sweep of pairwise backward-Euler rolling-dashpot impulses over a half step
     /// (module doc), grain pairs in list order, then grain–wall contacts.
     fn rolling_dashpot<const L: bool>(&mut self) {
+        self.paths.rolling_dashpot += 1;
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;
         let (w, inv_i, inertia) = (&mut s.w[..], &s.inv_i[..], &s.inertia[..]);
