@@ -113,6 +113,8 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "dem-collapse" | "dem-compress" | "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne)],
         "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
         "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
+        // Free role names, checked against the declaration in `check_roles`.
+        "plot" | "sweep-compare" => vec![],
         "power-law-fit" => {
             let overlays = params.get("overlay_laws").and_then(|o| o.as_array()).is_some_and(|a| !a.is_empty());
             vec![("data", Many), ("laws", if overlays { One } else { OptionalOne })]
@@ -123,6 +125,14 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
 
 /// Problems with a stage's resolved inputs against its kind's roles: (message, help).
 pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) -> Vec<(String, String)> {
+    let declared = match kind {
+        "plot" => serde_json::from_value::<crate::stages::plot::PlotParams>(params.clone()).ok().map(|p| p.roles()),
+        "sweep-compare" => serde_json::from_value::<crate::stages::compare::CompareParams>(params.clone()).ok().map(|p| p.roles()),
+        _ => None,
+    };
+    if let Some(read) = declared {
+        return free_roles(kind, &read, inputs);
+    }
     let Some(want) = roles(kind, params) else { return vec![] };
     let allowed = if want.is_empty() { "none (this kind reads no inputs)".to_string() } else { want.iter().map(|(r, _)| *r).collect::<Vec<_>>().join(", ") };
     let mut out = Vec::new();
@@ -142,6 +152,24 @@ pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) 
     for (role, arity) in &want {
         if matches!(arity, Arity::One | Arity::Many) && !inputs.iter().any(|(r, _)| r == role) {
             out.push((format!("missing required input `{role}` of kind `{kind}`"), format!("add `inputs: {{ {role}: STAGE }}`; roles of `{kind}`: {allowed}")));
+        }
+    }
+    out
+}
+
+/// Kinds whose params name their roles (`plot`, `sweep-compare`): each role the params
+/// read must be an input, and each input must be read (an unread role is a typo or a
+/// leftover).
+fn free_roles(kind: &str, read: &[String], inputs: &[(String, Vec<String>)]) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for r in read {
+        if !inputs.iter().any(|(role, _)| role == r) {
+            out.push((format!("the {kind} stage reads role `{r}`, which is not under `inputs:`"), format!("add `inputs: {{ {r}: STAGE }}` (a matrix base id fans in all its members)")));
+        }
+    }
+    for (role, _) in inputs {
+        if !read.contains(role) {
+            out.push((format!("input role `{role}` is not read by the {kind} stage's params"), format!("roles it reads: {}; remove the input or use it", read.join(", "))));
         }
     }
     out

@@ -47,6 +47,10 @@ impl Claim {
     pub fn at_most(id: &str, statement: &str, bound: f64, ours: f64) -> Claim {
         Claim { id: id.into(), statement: statement.into(), paper: bound, ours, tolerance: 0.0, pass: ours.is_finite() && ours <= bound, calibrated: false }
     }
+    /// A one-sided claim "ours ≥ bound".
+    pub fn at_least(id: &str, statement: &str, bound: f64, ours: f64) -> Claim {
+        Claim { id: id.into(), statement: statement.into(), paper: bound, ours, tolerance: 0.0, pass: ours.is_finite() && ours >= bound, calibrated: false }
+    }
     /// Mark as resting on a calibrated parameter.
     pub fn calibrated(mut self) -> Claim {
         self.calibrated = true;

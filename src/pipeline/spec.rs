@@ -303,7 +303,10 @@ fn known_ids(raw: &[Yaml]) -> std::collections::HashSet<String> {
     for e in raw {
         let Some(id) = e.get("id").and_then(|v| v.as_str()) else { continue };
         out.insert(id.to_string());
-        if let Some(Yaml::Mapping(m)) = e.get("matrix") {
+        // The stage's matrix and every profile's (a `--set` may name a member of either).
+        let profile_matrices = e.get("profiles").and_then(|p| p.as_mapping()).into_iter().flat_map(|p| p.values()).filter_map(|p| p.get("matrix"));
+        for mat in e.get("matrix").into_iter().chain(profile_matrices) {
+            let Yaml::Mapping(m) = mat else { continue };
             for (k, vals) in m {
                 for v in vals.as_sequence().into_iter().flatten() {
                     out.insert(format!("{id}-{}{}", yaml_scalar_string(k), yaml_scalar_string(v)));
@@ -399,7 +402,7 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         let raw_id = raw.get("id").and_then(|v| v.as_str()).map(str::to_string);
         let line = raw_id.as_deref().and_then(|id| locate_stage(&text, id));
         let label = raw_id.clone().unwrap_or_else(|| format!("#{si}"));
-        let entry: StageEntry = match serde_path_to_error::deserialize(raw.clone()) {
+        let mut entry: StageEntry = match serde_path_to_error::deserialize(raw.clone()) {
             Ok(e) => e,
             Err(e) => {
                 let inner = e.inner().to_string();
@@ -432,6 +435,33 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         };
         if let Some(prev) = seen_base.insert(entry.id.clone(), si) {
             diags.push(path, line, format!("stages[{}].id", entry.id), format!("duplicate stage id (also entry #{prev})"), "give every stage a unique id");
+            continue;
+        }
+        // A profile may sweep other values of the stage's matrix key (`profiles: { quick:
+        // { matrix: { a: [0.4, 6] } } }`): fewer aspect ratios in the quick profile, the
+        // chapter's list in the paper one. It replaces the values, never the key.
+        let mut profile_matrix_bad = false;
+        for (pname, pm) in entry.profiles.iter_mut() {
+            let Some(mv) = pm.remove(Yaml::String("matrix".into())) else { continue };
+            let l = line.and_then(|ln| locate(&text, &["profiles", pname, "matrix"], ln));
+            let parsed: Option<BTreeMap<String, Vec<Yaml>>> = serde_yaml::from_value(mv).ok();
+            let same_key = match (&parsed, &entry.matrix) {
+                (Some(pm), Some(m)) => pm.len() == 1 && pm.keys().next() == m.keys().next(),
+                _ => false,
+            };
+            if !same_key {
+                let base = entry.matrix.as_ref().and_then(|m| m.keys().next().cloned());
+                diags.push(path, l, format!("stages[{}].profiles.{pname}.matrix", entry.id), "a profile's matrix must sweep the stage's own matrix key", match base {
+                    Some(k) => format!("write `matrix: {{ {k}: [..] }}` (the key of the stage's `matrix:`)"),
+                    None => "declare `matrix:` on the stage first; a profile only changes its values".to_string(),
+                });
+                profile_matrix_bad = true;
+            } else if pname == profile {
+                entry.matrix = parsed;
+            }
+        }
+        if profile_matrix_bad {
+            rejected.insert(entry.id.clone());
             continue;
         }
         for p in entry.profiles.keys() {
@@ -557,6 +587,7 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 continue;
             }
         };
+        let first_member = pending_inputs.len();
         for (mid, mval) in members {
             let mut merged = Yaml::Mapping(Mapping::new());
             for layer in &layers {
@@ -639,10 +670,10 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             });
             pending_inputs.push((idx, None, mval.as_ref().map(|(k, vs, _)| (k.clone(), vs.clone())), line));
         }
-        // Attach the raw inputs spec to the members we just pushed.
-        let n_members = match &entry.matrix { Some(m) => m.values().next().map_or(0, |v| v.len()), None => 1 };
-        let start = pending_inputs.len().saturating_sub(n_members);
-        for p in pending_inputs[start..].iter_mut() {
+        // Attach the raw inputs spec to the members we just pushed (a rejected member
+        // pushed nothing: counting from the matrix would hand its inputs to the previous
+        // stage, which then reports roles it never declared).
+        for p in pending_inputs[first_member..].iter_mut() {
             p.1 = entry.inputs.as_ref().map(|i| match i {
                 InputsSpec::List(v) => InputsSpec::List(v.clone()),
                 InputsSpec::Map(m) => InputsSpec::Map(m.iter().map(|(k, v)| (k.clone(), match v {

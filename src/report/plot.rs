@@ -133,20 +133,19 @@ fn range(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 impl Chart {
     /// Render to an SVG document.
     pub fn to_svg(&self) -> anyhow::Result<String> {
-        let mut svg = String::new();
+        panels_to_svg(std::slice::from_ref(self), 1, &self.footer)
+    }
+
+    /// Draw the chart (without its footer) into one panel of a drawing.
+    fn draw_into<DB: DrawingBackend>(&self, body: &DrawingArea<DB, plotters::coord::Shift>) -> anyhow::Result<()> {
         {
-            let root = SVGBackend::with_string(&mut svg, (760, 520)).into_drawing_area();
-            root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-            let (body, foot) = root.split_vertically(495);
-            foot.draw(&Text::new(self.footer.clone(), (10, 5), ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90))))
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
             let xr = self.x_range.unwrap_or_else(|| range(self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), self.x_log));
             let yr = self.y_range.unwrap_or_else(|| range(self.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), self.y_log));
             // Long captions shrink to fit the width (plotters captions are one line).
             let title_size = (17.0 * (88.0 / self.title.chars().count().max(1) as f64).min(1.0)).max(9.0);
             macro_rules! draw {
                 ($xspec:expr, $yspec:expr) => {{
-                    let mut chart = ChartBuilder::on(&body)
+                    let mut chart = ChartBuilder::on(body)
                         .caption(&self.title, ("sans-serif", title_size))
                         .margin(12)
                         .x_label_area_size(45)
@@ -223,10 +222,30 @@ impl Chart {
                 (false, true) => draw!(xr.0..xr.1, (yr.0..yr.1).log_scale()),
                 (true, true) => draw!((xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale()),
             }
-            root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
         }
-        Ok(svg)
+        Ok(())
     }
+}
+
+/// Several charts as panels of one figure (`cols` per row, row-major), one footer.
+pub fn panels_to_svg(charts: &[Chart], cols: usize, footer: &str) -> anyhow::Result<String> {
+    let cols = cols.clamp(1, charts.len().max(1));
+    let rows = charts.len().div_ceil(cols).max(1);
+    let (w, h) = (760 * cols as u32, 495 * rows as u32 + 25);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let (body, foot) = root.split_vertically(h - 25);
+        foot.draw(&Text::new(footer.to_string(), (10, 5), ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90))))
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let areas = body.split_evenly((rows, cols));
+        for (c, area) in charts.iter().zip(areas.iter()) {
+            c.draw_into(area)?;
+        }
+        root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    }
+    Ok(svg)
 }
 
 /// An axis tick label: at most 3 significant digits, no binary-fraction noise (a log

@@ -13,10 +13,12 @@ use crate::validate::Issue;
 
 pub mod calib;
 pub mod cd_stages;
+pub mod compare;
 pub mod dem_stages;
 pub mod fit_stage;
 pub mod laws;
 pub mod mpm_stages;
+pub mod plot;
 pub mod psd;
 pub mod tables;
 
@@ -128,6 +130,8 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         mpm_stages::GEOSTATIC_KIND,
         mpm_stages::COLLAPSE_KIND,
         mpm_stages::WP_KIND,
+        plot::KIND,
+        compare::KIND,
     ];
     kinds.into_iter().map(|k| (k.name, k)).collect()
 }

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
 use crate::mpm::column::{CollapseOptions, CollapseResult, ColumnSpec, collapse, fig4_04};
-use crate::mpm::{MpmParams, StepRule};
+use crate::mpm::{Model, MpmParams, StepRule};
 use crate::pipeline::context::{Claim, Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
 use crate::report::snapshot::{Field, Segment, Shape, Snapshot};
@@ -27,6 +27,23 @@ fn calibrate(ctx: &StageCtx, p: &mut MpmParams, enabled: bool) -> anyhow::Result
     if let Some(s) = ctx.input_opt("shear") {
         p.material.friction_deg = s.scalar("friction_angle_deg")?;
         parts.push(format!("φ = {:.2}° from `{}`", p.material.friction_deg, s.id));
+        // μ(I)'s quasi-static friction is the same measured φ (figures.md I6: the chapter's
+        // μ_min is tan of its critical-state angle), so μ(I) and Mohr–Coulomb differ only
+        // by the rate term — the comparison of figs 4.14–4.15.
+        let mu = p.material.friction_deg.to_radians().tan();
+        match &mut p.material.model {
+            Model::MuILinear { mu_min, .. } => {
+                *mu_min = mu;
+                parts.push(format!("μ_min = tan φ = {mu:.4}"));
+            }
+            Model::MuIJop { mu_s, mu_2, .. } => {
+                let spread = *mu_2 - *mu_s;
+                *mu_s = mu;
+                *mu_2 = mu + spread;
+                parts.push(format!("μ_s = tan φ = {mu:.4}"));
+            }
+            _ => {}
+        }
     } else {
         parts.push(format!("φ = {}° (table 4.3)", p.material.friction_deg));
     }

@@ -1,0 +1,457 @@
+//! Kind `plot`: a figure declared in YAML. Analysis stages make tables and scalars; a
+//! `plot` stage only draws them: panels of series (which input, which table or scalars,
+//! which columns, a row filter, a normalisation), axes, fitted overlays read from
+//! `power-law-fit` stages and the chapter's stated laws read from `reference-laws` —
+//! both dashed and labelled as what they are, never as data.
+//!
+//! Input roles are free names: every `from:` (and `fits[].from`, `laws_from`,
+//! `error.from`) names a role declared under the stage's `inputs:`, and every declared role
+//! must be read (`src/pipeline/check.rs`). A role that names a matrix base id fans in all
+//! its members: `source: scalars` then gives one point per member (a sweep), `source:
+//! table` concatenates the members' tables.
+
+use std::collections::BTreeMap;
+
+use anyhow::{Context, anyhow};
+use polars::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::{Kind, Validate, decode, typed};
+use crate::pipeline::context::{InputRef, Output, StageCtx, col_f64};
+use crate::report::plot::{Chart, Legend, Series, Style, footer, panels_to_svg};
+use crate::validate::{Checker, Issue};
+
+/// One axis.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// Label with unit (or "nondimensional").
+    pub label: String,
+    /// Logarithmic axis.
+    #[serde(default)]
+    pub log: bool,
+    /// Fixed range [lo, hi] (else from the data).
+    #[serde(default)]
+    pub range: Option<[f64; 2]>,
+}
+
+/// Where a series' points come from.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// Rows of a table of each input of the role (concatenated).
+    #[default]
+    Table,
+    /// One point per input of the role, from its scalars (a sweep over matrix members).
+    Scalars,
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Draw {
+    /// Markers (measured points; the default).
+    #[default]
+    Points,
+    /// Solid line (time series).
+    Line,
+    /// Markers joined by a thin line.
+    LinePoints,
+}
+
+/// Legend corner.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Corner {
+    /// Upper left.
+    #[default]
+    UpperLeft,
+    /// Upper right.
+    UpperRight,
+    /// Lower left.
+    LowerLeft,
+    /// Lower right.
+    LowerRight,
+}
+
+/// One data series.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SeriesSpec {
+    /// Input role to read.
+    pub from: String,
+    /// Table or scalars.
+    #[serde(default)]
+    pub source: Source,
+    /// Table name (source: table).
+    #[serde(default = "main_table")]
+    pub table: String,
+    /// x column / scalar.
+    pub x: String,
+    /// y column / scalar.
+    pub y: String,
+    /// ± error column / scalar (drawn as bars).
+    #[serde(default)]
+    pub err: Option<String>,
+    /// Keep rows (or members) whose column (scalar) equals the value.
+    #[serde(default)]
+    pub filter: BTreeMap<String, serde_json::Value>,
+    /// Multiply x by this.
+    #[serde(default = "one")]
+    pub x_scale: f64,
+    /// Multiply y (and its error) by this.
+    #[serde(default = "one")]
+    pub y_scale: f64,
+    /// Divide y (and its error) by this column / scalar (a normalisation, e.g. `l0_m`).
+    #[serde(default)]
+    pub y_div: Option<String>,
+    /// Divide y (and its error) by the first row of this column (table source): a
+    /// normalisation by the initial value, e.g. `ep_j` for E/E_0.
+    #[serde(default)]
+    pub y_div_initial: Option<String>,
+    /// Legend label.
+    pub label: String,
+    /// Drawing.
+    #[serde(default)]
+    pub draw: Draw,
+    /// Palette index (default: the series' position).
+    #[serde(default)]
+    pub color: Option<usize>,
+}
+
+/// A fitted power law to overlay (dashed), from a `power-law-fit` stage.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FitOverlay {
+    /// Input role naming the fit stage.
+    pub from: String,
+    /// What was fitted (legend: "fit <label>: c·x^(n ± se)").
+    pub label: String,
+    /// Palette index.
+    #[serde(default)]
+    pub color: Option<usize>,
+}
+
+/// One panel.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Panel {
+    /// Panel title (default: the stage caption).
+    #[serde(default)]
+    pub title: Option<String>,
+    /// x axis.
+    pub x: Axis,
+    /// y axis.
+    pub y: Axis,
+    /// Legend corner.
+    #[serde(default)]
+    pub legend: Corner,
+    /// Data series.
+    #[serde(default)]
+    pub series: Vec<SeriesSpec>,
+    /// Fitted overlays.
+    #[serde(default)]
+    pub fits: Vec<FitOverlay>,
+    /// Stated laws (names of `reference-laws`) to overlay from the role `laws_from`.
+    #[serde(default)]
+    pub laws: Vec<String>,
+}
+
+/// The footer's measured error, read from a work-precision stage through the DAG.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorNote {
+    /// Input role naming the work-precision stage.
+    pub from: String,
+    /// Its scalar holding this profile's error.
+    pub scalar: String,
+    /// What the number is ("run-out error of the quick column vs the finest setting").
+    pub label: String,
+}
+
+/// Parameters of a `plot` stage.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PlotParams {
+    /// Panels, row-major.
+    pub panels: Vec<Panel>,
+    /// Panels per row (default: up to 2).
+    #[serde(default)]
+    pub columns: Option<usize>,
+    /// Role naming the `reference-laws` stage (needed when a panel lists `laws`).
+    #[serde(default)]
+    pub laws_from: Option<String>,
+    /// Measured error of this profile for the footer.
+    #[serde(default)]
+    pub error: Option<ErrorNote>,
+}
+
+fn main_table() -> String {
+    "table".into()
+}
+fn one() -> f64 {
+    1.0
+}
+
+impl PlotParams {
+    /// Every input role the declaration reads.
+    pub fn roles(&self) -> Vec<String> {
+        let mut r: Vec<String> = Vec::new();
+        let mut add = |s: &str| {
+            if !r.iter().any(|x| x == s) {
+                r.push(s.to_string());
+            }
+        };
+        for p in &self.panels {
+            p.series.iter().for_each(|s| add(&s.from));
+            p.fits.iter().for_each(|f| add(&f.from));
+        }
+        if let Some(l) = &self.laws_from {
+            add(l);
+        }
+        if let Some(e) = &self.error {
+            add(&e.from);
+        }
+        r
+    }
+}
+
+impl Validate for PlotParams {
+    fn validate(&self) -> Vec<Issue> {
+        let mut c = Checker::new("");
+        c.check(!self.panels.is_empty() && self.panels.len() <= 12, "panels", self.panels.len(), "1 to 12 panels");
+        if let Some(n) = self.columns {
+            c.check((1..=4).contains(&n), "columns", n, "1 to 4 panels per row");
+        }
+        for (i, p) in self.panels.iter().enumerate() {
+            for (ax, a) in [("x", &p.x), ("y", &p.y)] {
+                if let Some([lo, hi]) = a.range {
+                    let key = format!("panels[{i}].{ax}.range");
+                    c.check(lo.is_finite() && hi.is_finite() && hi > lo && (!a.log || lo > 0.0), &key, format!("[{lo}, {hi}]"), "[lo, hi] with lo < hi (lo > 0 on a log axis)");
+                }
+            }
+            c.check(!p.series.is_empty() || !p.fits.is_empty() || !p.laws.is_empty(), &format!("panels[{i}]"), "empty", "at least one series, fit or law");
+            for (j, s) in p.series.iter().enumerate() {
+                let key = format!("panels[{i}].series[{j}]");
+                c.check(s.x_scale.is_finite() && s.x_scale != 0.0, &format!("{key}.x_scale"), s.x_scale, "a finite non-zero factor");
+                c.check(s.y_scale.is_finite() && s.y_scale != 0.0, &format!("{key}.y_scale"), s.y_scale, "a finite non-zero factor");
+                c.check(!(s.source == Source::Scalars && s.y_div_initial.is_some()), &format!("{key}.y_div_initial"), "with source: scalars", "a table source (scalars have no first row)");
+                for (k, v) in &s.filter {
+                    c.check(v.is_number() || v.is_string() || v.is_boolean(), &format!("{key}.filter.{k}"), v, "a number, string or boolean");
+                }
+            }
+            for l in &p.laws {
+                c.check(super::laws::eval(l, 1.0).is_some(), &format!("panels[{i}].laws"), l, &format!("one of {}", super::laws::LAWS.iter().map(|l| l.0).collect::<Vec<_>>().join(", ")));
+            }
+            if !p.laws.is_empty() && self.laws_from.is_none() {
+                c.fail("laws_from", "missing", "the role of the `reference-laws` stage, e.g. `laws_from: laws` with `inputs: { laws: laws }`");
+            }
+        }
+        c.issues
+    }
+}
+
+/// Does a value (f64 column cell or scalar) match a filter value?
+fn matches_num(v: f64, want: &serde_json::Value) -> bool {
+    match want {
+        serde_json::Value::Number(n) => n.as_f64().is_some_and(|w| (v - w).abs() <= 1e-12 * w.abs().max(1.0)),
+        serde_json::Value::Bool(b) => (v != 0.0) == *b,
+        _ => false,
+    }
+}
+
+/// Rows of a table as (x, y, err) after filter and normalisation.
+fn table_points(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Vec<(f64, f64, f64)>> {
+    let df = inp.table(&s.table)?;
+    let n = df.height();
+    let mut keep = vec![true; n];
+    for (col, want) in &s.filter {
+        let c = df.column(col).map_err(|_| anyhow!("input `{}` table `{}` has no column `{col}` (filter)", inp.id, s.table))?;
+        if let (DataType::String, Some(w)) = (c.dtype(), want.as_str()) {
+            let ca = c.str()?;
+            for (k, v) in ca.iter().enumerate() {
+                keep[k] &= v == Some(w);
+            }
+        } else {
+            let v = col_f64(&df, col)?;
+            for (k, x) in v.iter().enumerate() {
+                keep[k] &= matches_num(*x, want);
+            }
+        }
+    }
+    let ctx = |what: &str| format!("input `{}` table `{}`: {what}", inp.id, s.table);
+    let x = col_f64(&df, &s.x).with_context(|| ctx("x"))?;
+    let y = col_f64(&df, &s.y).with_context(|| ctx("y"))?;
+    let e = match &s.err { Some(c) => col_f64(&df, c).with_context(|| ctx("err"))?, None => vec![f64::NAN; n] };
+    let d = match &s.y_div {
+        Some(c) => match col_f64(&df, c) {
+            Ok(v) => v,
+            Err(_) => vec![inp.scalar(c).with_context(|| ctx("y_div is neither a column nor a scalar"))?; n],
+        },
+        None => vec![1.0; n],
+    };
+    let d0 = match &s.y_div_initial {
+        Some(c) => *col_f64(&df, c).with_context(|| ctx("y_div_initial"))?.first().ok_or_else(|| anyhow!("{}", ctx("empty table")))?,
+        None => 1.0,
+    };
+    let d: Vec<f64> = d.into_iter().map(|v| v * d0).collect();
+    Ok((0..n).filter(|&k| keep[k]).map(|k| (x[k] * s.x_scale, y[k] * s.y_scale / d[k], e[k] * s.y_scale / d[k])).collect())
+}
+
+/// One point from an input's scalars (None when the filter drops it).
+fn scalar_point(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Option<(f64, f64, f64)>> {
+    let sc = inp.scalars()?;
+    for (k, want) in &s.filter {
+        let v = *sc.get(k).ok_or_else(|| anyhow!("input `{}` has no scalar `{k}` (filter)", inp.id))?;
+        if !matches_num(v, want) {
+            return Ok(None);
+        }
+    }
+    let get = |k: &str| sc.get(k).copied().ok_or_else(|| anyhow!("input `{}` has no scalar `{k}`", inp.id));
+    let d = match &s.y_div { Some(c) => get(c)?, None => 1.0 };
+    let e = match &s.err { Some(c) => get(c)?, None => f64::NAN };
+    Ok(Some((get(&s.x)? * s.x_scale, get(&s.y)? * s.y_scale / d, e * s.y_scale / d)))
+}
+
+fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Series> {
+    let inputs = ctx.inputs_of(&s.from);
+    anyhow::ensure!(!inputs.is_empty(), "stage `{}`: series `{}` reads role `{}`, which names no input", ctx.id, s.label, s.from);
+    let mut pts: Vec<(f64, f64, f64)> = Vec::new();
+    for inp in inputs {
+        match s.source {
+            Source::Table => pts.extend(table_points(inp, s)?),
+            Source::Scalars => pts.extend(scalar_point(inp, s)?),
+        }
+    }
+    if s.source == Source::Scalars {
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    let style = match s.draw { Draw::Points => Style::Points, Draw::Line => Style::Line, Draw::LinePoints => Style::LinePoints };
+    let mut out = Series::new(s.label.clone(), style, pts.iter().map(|p| (p.0, p.1)).collect(), s.color.unwrap_or(color));
+    if s.err.is_some() {
+        out = out.with_errors(pts.iter().map(|p| p.2).collect());
+    }
+    Ok(out)
+}
+
+/// The dashed curves of a `power-law-fit` stage: one per regime, over its fitted range.
+fn fit_series(ctx: &StageCtx, f: &FitOverlay, color: usize) -> anyhow::Result<Vec<Series>> {
+    let inp = ctx.inputs_of(&f.from).first().ok_or_else(|| anyhow!("stage `{}`: fit `{}` reads role `{}`, which names no input", ctx.id, f.label, f.from))?;
+    let t = inp.table("table")?;
+    let (lo, hi) = (col_f64(&t, "x_min")?, col_f64(&t, "x_max")?);
+    let (n, se, c) = (col_f64(&t, "exponent")?, col_f64(&t, "exponent_se")?, col_f64(&t, "prefactor")?);
+    Ok((0..t.height())
+        .map(|k| {
+            let pts = (0..40).map(|i| {
+                let x = lo[k] * (hi[k] / lo[k]).powf(i as f64 / 39.0);
+                (x, c[k] * x.powf(n[k]))
+            });
+            let regime = if t.height() > 1 { if k == 0 { " (low)" } else { " (high)" } } else { "" };
+            Series::new(format!("fit {}{regime}: {:.3}·x^({:.3} ± {:.3})", f.label, c[k], n[k], se[k]), Style::Dashed, pts.collect(), f.color.unwrap_or(color))
+        })
+        .collect())
+}
+
+fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
+    let p: PlotParams = decode(ctx)?;
+    let caption = ctx.caption.clone().unwrap_or_else(|| ctx.id.clone());
+    let mut charts = Vec::new();
+    let mut out = Output::default();
+    for panel in &p.panels {
+        let mut series = Vec::new();
+        for (j, s) in panel.series.iter().enumerate() {
+            series.push(series_of(ctx, s, j)?);
+        }
+        for (j, f) in panel.fits.iter().enumerate() {
+            series.extend(fit_series(ctx, f, panel.series.len() + j)?);
+        }
+        if !panel.laws.is_empty() {
+            let role = p.laws_from.as_deref().unwrap_or("laws");
+            let laws = ctx.inputs_of(role).first().ok_or_else(|| anyhow!("stage `{}`: laws need the `reference-laws` stage under role `{role}`", ctx.id))?.table("table")?;
+            let a = col_f64(&laws, "a")?;
+            for (k, l) in panel.laws.iter().enumerate() {
+                let v = col_f64(&laws, l)?;
+                let label = super::laws::LAWS.iter().find(|x| x.0 == l).map(|x| x.1).unwrap_or(l);
+                series.push(Series::new(label, Style::Dashed, a.iter().copied().zip(v).collect(), 5 + k));
+            }
+        }
+        // Points drawn are what the figure shows: count them (a golden number that moves
+        // when a filter or an upstream sweep silently changes).
+        out.scalar(&format!("panel{}_points", charts.len()), series[..panel.series.len()].iter().map(|s| s.points.len() as f64).sum());
+        charts.push(Chart {
+            title: panel.title.clone().unwrap_or_else(|| caption.clone()),
+            footer: String::new(),
+            x_label: panel.x.label.clone(),
+            y_label: panel.y.label.clone(),
+            x_log: panel.x.log,
+            y_log: panel.y.log,
+            x_range: panel.x.range.map(|[a, b]| (a, b)),
+            y_range: panel.y.range.map(|[a, b]| (a, b)),
+            series,
+            legend: match panel.legend {
+                Corner::UpperLeft => Legend::UpperLeft,
+                Corner::UpperRight => Legend::UpperRight,
+                Corner::LowerLeft => Legend::LowerLeft,
+                Corner::LowerRight => Legend::LowerRight,
+            },
+        });
+    }
+    let note = match &p.error {
+        Some(e) => {
+            let inp = ctx.inputs_of(&e.from).first().ok_or_else(|| anyhow!("stage `{}`: error note reads role `{}`, which names no input", ctx.id, e.from))?;
+            let v = inp.scalar(&e.scalar)?;
+            out.scalar("profile_error", v);
+            format!("measured error ({}): {:.3}", e.label, v)
+        }
+        None => String::new(),
+    };
+    let cols = p.columns.unwrap_or(charts.len().min(2));
+    out.figure("figure", panels_to_svg(&charts, cols, &footer(&ctx.profile, &note))?);
+    Ok(out)
+}
+
+/// Kind `plot`.
+pub const KIND: Kind = Kind {
+    name: "plot",
+    version: 1,
+    about: "a figure declared in YAML: panels of series from upstream tables or sweep scalars, fits and stated laws dashed",
+    params: typed::<PlotParams>,
+    run,
+    explain: None,
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roles_are_the_declared_sources() {
+        let p: PlotParams = serde_json::from_value(serde_json::json!({
+            "panels": [{ "x": {"label": "a", "log": true}, "y": {"label": "r"},
+                "series": [{ "from": "dem", "source": "scalars", "x": "a", "y": "runout_norm", "label": "DEM" },
+                           { "from": "mpm", "x": "a", "y": "r", "label": "MPM" }],
+                "fits": [{ "from": "fit_dem", "label": "DEM" }], "laws": ["eq4_6_runout"] }],
+            "laws_from": "laws"
+        }))
+        .unwrap();
+        assert_eq!(p.roles(), vec!["dem", "mpm", "fit_dem", "laws"]);
+        assert!(p.validate().is_empty());
+    }
+
+    #[test]
+    fn laws_need_their_role_and_known_names() {
+        let p: PlotParams = serde_json::from_value(serde_json::json!({
+            "panels": [{ "x": {"label": "a"}, "y": {"label": "r"}, "laws": ["eq9_9"] }]
+        }))
+        .unwrap();
+        let keys: Vec<String> = p.validate().into_iter().map(|i| i.key).collect();
+        assert!(keys.contains(&"panels[0].laws".to_string()) && keys.contains(&"laws_from".to_string()), "{keys:?}");
+    }
+
+    #[test]
+    fn numeric_filter() {
+        assert!(matches_num(0.4, &serde_json::json!(0.4)));
+        assert!(!matches_num(0.4, &serde_json::json!(0.8)));
+        assert!(matches_num(1.0, &serde_json::json!(true)));
+    }
+}
