@@ -17,6 +17,7 @@ const GOLDEN: &[&str] = &[
     "calib-point-capped-mu_r0.1", "calib-point-capped-mu_r0.3", "calib-dem", "fig4-01a", "fig4-02", "fig4-03",
     "compress-dem", "col-dem-a0.4", "col-dem-a6", "col-dem-no-rolling-damper", "wp-dem-column", "fig4-23",
     "fig4-04", "col-mpm-a0.4", "wp-mpm-column", "shear-cd", "fig4-25", "wp-cd-pile",
+    "wp-summary",
 ];
 
 /// Significant digits pinned for a stage.

@@ -103,6 +103,7 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "psd-figure" | "dem-pile-prep" | "cd-shear" => vec![("psd", One)],
         "cd-shear-figure" => vec![("shear", One)],
         "cd-work-precision" => vec![],
+        "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],
         "dem-calibration-point" => vec![("psd", One), ("columns", Many)],
