@@ -262,7 +262,10 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             let have: Vec<&str> = rows.iter().filter(|r| r.method == method).map(|r| r.setting.as_str()).collect();
             anyhow::bail!("profile.{method} = `{setting}` is not a setting of the {method} work-precision stage (have: {})", have.join(", "));
         };
-        out.scalar(&format!("{method}_profile_error"), r.error).scalar(&format!("{method}_profile_error_se"), r.error_se);
+        out.scalar(&format!("{method}_profile_error"), r.error);
+        if r.error_se.is_finite() {
+            out.scalar(&format!("{method}_profile_error_se"), r.error_se);
+        }
         prof.push((r.method, (*r).clone()));
     }
     // Wall times are measurements, not results: tables of their own, so `table` and the
@@ -308,7 +311,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `wp-summary`.
 pub const KIND: Kind = Kind {
     name: "wp-summary",
-    version: 3,
+    version: 4,
     about: "work-precision atlas: every work-precision stage's error vs wall time in one table and figure, observed orders, the profile's error and cost",
     params: typed::<SummaryParams>,
     run,
