@@ -71,6 +71,9 @@ pub enum BenchEngine {
     /// Cost growth: wall time per step against grain / point count (1e3 … 1e5) for DEM,
     /// CD and MPM, one thread; a table, JSON lines and `--svg FILE`.
     Scaling,
+    /// Per-stage table of the optional terms and outputs each scene enables, and the step
+    /// cost of its configuration against everything on (issue 12; README "Stability and cost").
+    LeaveOut,
 }
 
 /// DEM benchmark physics.
@@ -197,7 +200,7 @@ pub enum Cmd {
         sets: Vec<String>,
     },
     /// Run one ad-hoc scene outside the pipeline: a DEM column (psd + column + run sections)
-    /// or, with `engine: cd`, a CD shear cell or pile.
+    /// or, with `engine: cd`, a CD shear cell or pile; with `engine: mpm`, an MPM column.
     Simulate {
         /// Scene file (YAML; see docs/pipeline.md).
         scene: PathBuf,
@@ -492,7 +495,15 @@ pub fn run_cli(cli: Cli) -> i32 {
             }
         }
         Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
+        Cmd::Simulate { scene, out, quiet } if crate::scene_mpm::is_mpm_scene(&scene) => crate::scene_mpm::simulate_mpm(&scene, &out, quiet),
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
+        Cmd::Bench { engine: BenchEngine::LeaveOut, steps, .. } => match load(&cli.pipeline, "quick", &[]) {
+            Ok(p) => crate::bench_leave_out::run(&p, steps.unwrap_or(2000)),
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
         Cmd::Bench { engine, steps, phases, threads, dt, case, repeat, svg, max_n } => bench(engine, steps, &BenchOpts { phases, threads, dt, case, repeat, svg, max_n }),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
     }
@@ -816,6 +827,7 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
             }
             0
         }
+        BenchEngine::LeaveOut => 2, // needs the pipeline: dispatched in run_cli
     }
 }
 

@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod bench_leave_out;
 pub mod cli;
 pub mod fit;
 pub mod math;
@@ -19,6 +20,7 @@ pub mod pipeline;
 pub mod report;
 pub mod sample;
 pub mod scene;
+pub mod scene_mpm;
 pub mod stages;
 pub mod validate;
 pub mod vtk;

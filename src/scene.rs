@@ -78,7 +78,7 @@ fn scene_key(diag_key: &str) -> String {
         (_, "dem" | "stiffness_factor" | "vtk") => param.to_string(),
         ("psd", _) => format!("psd.{param}"),
         ("column", _) => format!("column.{param}"),
-        ("collapse", "run") => param.to_string(),
+        ("collapse", "run" | "mpm" | "a" | "area_m2") => param.to_string(),
         _ => format!("{stage}.{param}"),
     }
 }
@@ -165,7 +165,32 @@ pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
             return 2;
         }
     };
+    if let Err(m) = preflight_scene_sizes(scene, &text, &sf) {
+        eprintln!("error: {m}");
+        return 2;
+    }
     run_generated(scene, &text, &scene_pipeline(scene, &sf), out, quiet)
+}
+
+/// The stage validation audits the step on PSD-COL's sizes (it cannot see the grains);
+/// a scene states its own d_min and d_max, so audit those too (a wider PSD has smaller,
+/// faster grains: r = 6 needs a smaller step than PSD-COL).
+fn preflight_scene_sizes(scene: &Path, text: &str, sf: &SceneFile) -> Result<(), String> {
+    let num = |k: &str| sf.psd.get(k).and_then(|v| v.as_f64());
+    let (Some(dmin), Some(dmax)) = (num("d_min_mm"), num("d_max_mm")) else { return Ok(()) };
+    let Ok(dem) = serde_yaml::from_value::<crate::dem::DemParams>(nonnull(&sf.dem)) else { return Ok(()) };
+    if !(dmin > 0.0 && dmax >= dmin) || !dem.validate().is_empty() || !(sf.stiffness_factor > 0.0) {
+        return Ok(()); // reported by the stage validation
+    }
+    let run = dem.softened(sf.stiffness_factor);
+    let sizes = crate::dem::SizeClasses { r_min: 0.5e-3 * dmin, r_mean: 0.25e-3 * (dmin + dmax), r_max: 0.5e-3 * dmax };
+    match crate::dem::preflight(&run, sizes, true, run.dt) {
+        Ok(_) => Ok(()),
+        Err(e) => {
+            let line = crate::pipeline::diag::locate(text, &["dem", "dt"], 1).map(|l| format!(":{l}")).unwrap_or_default();
+            Err(format!("{}{line}: dem.dt: {:.3e} s (stiffness_factor {}) is unstable for this scene's grains (d_min = {dmin} mm): {e}\n  help: `granrepro run --explain` prints every time scale", scene.display(), run.dt, sf.stiffness_factor))
+        }
+    }
 }
 
 /// One stage entry of a generated pipeline: `id`, `kind`, `params` and at most one input

@@ -98,6 +98,28 @@ impl Default for CdParams {
 }
 
 impl CdParams {
+    /// Validation-time pre-flight of step `dt` for grains of smallest diameter `d_min`
+    /// moving at most at `v_max` (a stage's stated speed, e.g. the excitation v0): a grain
+    /// may move at most half the alert distance per step (the same bound [`World::step`]
+    /// enforces on the actual speeds), else a pair can close — and, once the travel
+    /// exceeds d_min, pass through one another — between two detections. The binding time
+    /// scale is the alert-crossing time alert/(2 v_max).
+    ///
+    /// [`World::step`]: crate::cd::World::step
+    pub fn step_preflight(&self, dt: Real, d_min: Real, v_max: Real) -> Result<(), String> {
+        let alert = self.alert_fraction * d_min;
+        let limit = 0.5 * alert / v_max;
+        if dt <= limit {
+            return Ok(());
+        }
+        let travel = dt * v_max;
+        let through = if travel >= d_min { " — more than d_min: grains pass through one another unseen" } else { "" };
+        Err(format!(
+            "CD step {dt:.3e} s moves a grain at v_max = {v_max:.3} m/s by {travel:.3e} m = {:.2} d_min per step{through}; binding time scale: alert-distance crossing time alert/(2 v_max) = {limit:.3e} s (alert = {} d_min = {alert:.3e} m); limit dt <= {limit:.3e} s; fix: dt <= {:.3e} s (figures.md c.5: 0.02 d_min/v_max = {:.3e} s) or alert_fraction >= {:.3}",
+            travel / d_min, self.alert_fraction, 0.9 * limit, crate::cd::preflight::recommended_dt(d_min, v_max), 2.0 * travel / d_min
+        ))
+    }
+
     /// All range problems at once (empty when valid).
     pub fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");

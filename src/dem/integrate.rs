@@ -134,6 +134,7 @@ impl World {
     /// One sweep of pairwise backward-Euler rolling-dashpot impulses over a half step
     /// (module doc), grain pairs in list order, then grain–wall contacts.
     fn rolling_dashpot<const L: bool>(&mut self) {
+        self.paths.rolling_dashpot += 1;
         let t0 = std::time::Instant::now();
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;

@@ -39,3 +39,15 @@ pub fn timed<T>(slot: &mut f64, f: impl FnOnce() -> T) -> T {
     *slot += t0.elapsed().as_secs_f64();
     r
 }
+
+/// How often each optional physics path ran (leave-out proof, issue 12): a scene that does
+/// not enable a term must leave its counter at 0.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PathCounts {
+    /// Force passes that evaluated rolling resistance (contact law with `ROLLING`).
+    pub rolling_forces: u64,
+    /// Implicit rolling-dashpot sweeps (`integrate::rolling_dashpot`).
+    pub rolling_dashpot: u64,
+    /// Force passes that booked the energy ledger.
+    pub ledger: u64,
+}

@@ -172,6 +172,8 @@ pub struct World {
     pub energy_check: bool,
     /// Phase timers.
     pub timers: PhaseTimers,
+    /// Optional physics paths taken (leave-out counters).
+    pub paths: crate::dem::timers::PathCounts,
     /// Last step's diagnostics.
     pub info: StepInfo,
     pub(crate) nl: NeighborList,
@@ -224,6 +226,7 @@ impl World {
             e0: 0.0,
             energy_check: true,
             timers: PhaseTimers::default(),
+            paths: Default::default(),
             info: StepInfo::default(),
             nl: NeighborList::default(),
             wall_hist: Vec::new(),
@@ -327,7 +330,8 @@ impl World {
             return Err(DemError::Setup(format!("{} walls, at most {MAX_WALLS} supported", self.walls.len())));
         }
         let rolling = self.params.rolling.enabled;
-        let implicit = self.params.rolling.damping == RollingDamping::Implicit;
+        // no dashpot (c_r = 0): nothing to sweep; the explicit path is the same arithmetic
+        let implicit = self.params.rolling.damping == RollingDamping::Implicit && self.params.rolling.cr > 0.0;
         let ledger = self.params.ledger;
         match (rolling, implicit, ledger) {
             (true, true, true) => self.run_with::<true, true, true>(n),
@@ -405,6 +409,7 @@ impl World {
     /// histories advance by `dt` (0 for the priming evaluation).
     fn compute_forces<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) {
         let t0 = Instant::now();
+        (self.paths.rolling_forces, self.paths.ledger) = (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
         let p = self.compute_contacts::<R, IMP, L>(dt);
         let t1 = Instant::now();
         self.timers.contacts += (t1 - t0).as_secs_f64();

@@ -103,3 +103,23 @@ impl fmt::Display for Report {
         Ok(())
     }
 }
+
+/// Validation-time containment check of a column collapse: the grid of
+/// [`crate::mpm::column::build`] reaches x₁ = L_0(1 + 3·eq 4.6) + 8h. Base friction μ_w
+/// dissipates at least μ_w M g per unit travel of the mass centre, which releases at most
+/// ΔE_p ≤ M g H_0/2, so the centre travels at most H_0/(2μ_w); a front beyond x₁ is
+/// then impossible only if L_0 + H_0/(2μ_w) ≤ x₁ is not violated by the spreading itself —
+/// we refuse when even the centre's bound leaves the grid (μ_w = 0: no bound at all).
+pub fn containment(params: &MpmParams, spec: crate::mpm::column::ColumnSpec) -> Result<(), String> {
+    let h = params.cell_size;
+    let x1 = spec.l0 * (1.0 + 3.0 * spec.runout_estimate()) + 8.0 * h;
+    let mu = params.wall_friction;
+    let reach = if mu > 0.0 { spec.l0 + spec.h0 / (2.0 * mu) } else { Real::INFINITY };
+    if reach <= x1 {
+        return Ok(());
+    }
+    let mu_min = spec.h0 / (2.0 * (x1 - spec.l0));
+    Err(format!(
+        "points would leave the grid: with base friction wall_friction = {mu} nothing bounds the slide within the grid (mass-centre travel bound L_0 + H_0/(2 mu_w) = {reach:.3e} m > grid end x1 = {x1:.3e} m, sized to 1 + 3x the eq 4.6 run-out); limit: wall_friction >= {mu_min:.3} for this column; fix: raise wall_friction (table 4.3: 0.466) or shorten the column"
+    ))
+}

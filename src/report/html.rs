@@ -1,6 +1,8 @@
 //! `reports/<profile>/index.html`: every produced figure with its caption, profile and
-//! claim checks (paper value, ours, tolerance, pass/fail), rebuilt from the published
-//! `ID.json` / `ID.record.json` files after each run.
+//! claim checks (paper value, ours, tolerance, pass/fail), in the chapter's order, opened
+//! by a per-section claims summary and the "error vs run time" table (from `wp-summary`),
+//! with the input checks listed apart; rebuilt from the published `ID.json` /
+//! `ID.record.json` files after each run.
 
 use std::fmt::Write;
 use std::path::Path;
@@ -30,11 +32,109 @@ pub fn write_index(dir: &Path, profile: &str) -> std::io::Result<()> {
     write_index_of(dir, profile, &ids)
 }
 
+/// Where a stage sits in the chapter: (section, order key). Figures and tables by their
+/// number, tables at their first mention (table 4.1 before figure 4.1, 4.2 after figure
+/// 4.2, 4.3 after figure 4.3); other stages after the figures of their section, in the
+/// pipeline's order (`pos`).
+fn chapter_place(id: &str, pos: usize) -> (usize, (u64, u64, String, usize)) {
+    let num = |rest: &str| -> Option<(u64, String)> {
+        let d: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+        d.parse().ok().map(|n| (n, rest[d.len()..].to_string()))
+    };
+    let section_of_fig = |n: u64| if n <= 14 { 0 } else if n <= 22 { 1 } else { 2 };
+    if let Some((n, suffix)) = id.strip_prefix("fig4-").and_then(num) {
+        return (section_of_fig(n), (n, 0, suffix, pos));
+    }
+    if let Some((n, _)) = id.strip_prefix("tab4-").and_then(num) {
+        let after = match n {
+            1 => 0,
+            k => k,
+        };
+        return (0, (after, 1, String::new(), pos));
+    }
+    let section = if id.starts_with("wp-") {
+        3
+    } else if id.contains("pile") || id.contains("-cd") || id.ends_with("cd") {
+        2
+    } else if id.contains("loose") || id.contains("dense") {
+        1
+    } else {
+        0
+    };
+    (section, (u64::MAX, 2, String::new(), pos))
+}
+
+const SECTIONS: [&str; 4] = ["4.2 Granular column collapse", "4.3 Role of initial grain properties", "4.4 Slopes subjected to horizontal excitation", "Numerics: work-precision"];
+
+/// Methods a stage's numbers come from (for its measured error): the kind's engine, else
+/// the engines of its inputs (the `wp` input first).
+fn methods(rec: &Value) -> Vec<&'static str> {
+    let engine = |s: &str| -> Option<&'static str> {
+        if s.starts_with("dem") || s.contains("-dem") || s.starts_with("calib") { Some("dem") } else if s.contains("mpm") { Some("mpm") } else if s.starts_with("cd") || s.contains("-cd") { Some("cd") } else { None }
+    };
+    let kind = rec.get("kind").and_then(|v| v.as_str()).unwrap_or("");
+    if kind == "wp-summary" {
+        return vec![];
+    }
+    if let Some(m) = engine(kind) {
+        return vec![m];
+    }
+    let inputs: Vec<(String, String)> = rec.get("inputs").and_then(|v| v.as_array()).map(|a| a.iter().map(|i| (i["role"].as_str().unwrap_or("").to_string(), i["id"].as_str().unwrap_or("").to_string())).collect()).unwrap_or_default();
+    if let Some((_, id)) = inputs.iter().find(|(r, _)| r == "wp") {
+        return engine(id).into_iter().collect();
+    }
+    let mut out: Vec<&'static str> = Vec::new();
+    for (_, id) in &inputs {
+        if let Some(m) = engine(id) {
+            if !out.contains(&m) {
+                out.push(m);
+            }
+        }
+    }
+    out
+}
+
+/// The profile's measured error and cost per method, from the `wp-summary` stage's
+/// published outputs: method → (setting, error, standard error, wall time of one run).
+fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64, f64, f64)> {
+    let mut out = std::collections::BTreeMap::new();
+    let Ok(text) = std::fs::read_to_string(dir.join("wp-summary-profile.csv")) else { return out };
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let col = |k: &str| head.iter().position(|h| *h == k);
+    let (Some(m), Some(s), Some(e), Some(se), Some(w)) = (col("method"), col("setting"), col("rel_error"), col("rel_error_se"), col("wall_s")) else { return out };
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        let x = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+        if let (Some(mm), Some(ss)) = (f.get(m), f.get(s)) {
+            out.insert(mm.to_string(), (ss.to_string(), x(e), x(se), x(w)));
+        }
+    }
+    out
+}
+
+fn pct(e: f64, se: f64) -> String {
+    if !e.is_finite() {
+        return "—".into();
+    }
+    if se.is_finite() { format!("{:.1} ± {:.1} %", 100.0 * e, 100.0 * se) } else { format!("{:.1} %", 100.0 * e) }
+}
+
 /// Rebuild the index of one profile's report directory listing exactly the stages `ids`
-/// (the pipeline's stage list) that have published outputs.
+/// (the pipeline's stage list) that have published outputs. The page follows the
+/// chapter: a claims summary per section, the "error vs run time" table (one row per
+/// figure: its method's measured error at the profile's setting and the wall time of one
+/// run there, read from the `wp-summary` stage), every figure and table in chapter order
+/// (supporting stages after each section's figures), and the input and consistency
+/// checks listed apart at the end.
 pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Result<()> {
-    let mut ids: Vec<String> = ids.iter().filter(|id| dir.join(format!("{id}.json")).exists()).cloned().collect();
-    ids.sort_by(|a, b| natural_key(a).cmp(&natural_key(b)));
+    let ids: Vec<String> = ids.iter().filter(|id| dir.join(format!("{id}.json")).exists()).cloned().collect();
+    let mut placed: Vec<(usize, (u64, u64, String, usize), String)> = ids.iter().enumerate().map(|(pos, id)| {
+        let (sec, key) = chapter_place(id, pos);
+        (sec, key, id.clone())
+    }).collect();
+    placed.sort();
+    let perr = profile_errors(dir);
     let mut h = String::new();
     let _ = write!(
         h,
@@ -45,24 +145,69 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
 <p>Regenerated figures and tables of K. Kumar, <i>Multi-scale multiphase modelling of granular flows</i>, PhD thesis, University of Cambridge (2015), chapter 4 (DOI 10.5281/zenodo.160339, CC BY 4.0). Every number below comes from a run of this pipeline at the profile named; claims compare it with the chapter.</p>",
         p = esc(profile)
     );
-    let (mut n_pass, mut n_fail, mut n_calibrated, mut n_check_pass, mut n_check_fail) = (0, 0, 0, 0, 0);
+    // per-section claims and all checks, gathered first
+    struct ClaimRow { stage: String, id: String, statement: String, paper: Value, ours: Value, tol: Value, pass: bool, calibrated: bool }
+    let mut claims: Vec<Vec<ClaimRow>> = (0..SECTIONS.len()).map(|_| Vec::new()).collect();
+    let mut checks: Vec<ClaimRow> = Vec::new();
     let mut body = String::new();
-    for id in &ids {
+    let mut ervt = String::new();
+    let mut current = usize::MAX;
+    for (sec, _, id) in &placed {
         let Ok(res) = std::fs::read(dir.join(format!("{id}.json"))).map(|b| serde_json::from_slice::<Value>(&b).unwrap_or(Value::Null)) else { continue };
         let rec: Value = std::fs::read(dir.join(format!("{id}.record.json"))).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or(Value::Null);
+        let row = |c: &Value| ClaimRow {
+            stage: id.clone(),
+            id: c.get("id").and_then(|v| v.as_str()).unwrap_or("").to_string(),
+            statement: c.get("statement").and_then(|v| v.as_str()).unwrap_or("").to_string(),
+            paper: c["paper"].clone(),
+            ours: c["ours"].clone(),
+            tol: c["tolerance"].clone(),
+            pass: c.get("pass").and_then(|p| p.as_bool()).unwrap_or(false),
+            calibrated: c.get("calibrated").and_then(|p| p.as_bool()).unwrap_or(false),
+        };
+        let stage_claims: Vec<ClaimRow> = res.get("claims").and_then(|c| c.as_array()).map(|a| a.iter().map(row).collect()).unwrap_or_default();
+        let stage_checks: Vec<ClaimRow> = res.get("checks").and_then(|c| c.as_array()).map(|a| a.iter().map(row).collect()).unwrap_or_default();
+        if *sec != current {
+            current = *sec;
+            let _ = write!(body, "<h2 id=\"section-{current}\">{}</h2>", esc(SECTIONS[current]));
+        }
         let caption = rec.get("caption").and_then(|c| c.as_str()).unwrap_or("");
-        let _ = write!(body, "<figure id=\"{i}\"><h2>{i}</h2>", i = esc(id));
-        if dir.join(format!("{id}.svg")).exists() {
+        let has_svg = dir.join(format!("{id}.svg")).exists();
+        let ms = methods(&rec);
+        let err_note: Vec<String> = ms.iter().filter_map(|m| perr.get(*m).map(|(set, e, se, w)| format!("{} error at the {profile} setting ({set}): {} · one run there {:.1} s", m.to_uppercase(), pct(*e, *se), w))).collect();
+        if has_svg {
+            let stage_wall = rec.get("wall_s").and_then(|v| v.as_f64());
+            let (e_cell, w_cell) = if err_note.is_empty() {
+                (if ms.is_empty() { "— (no simulation: inputs and stated laws)".to_string() } else { "— (no work-precision stage for this method)".to_string() }, "—".to_string())
+            } else {
+                (
+                    ms.iter().filter_map(|m| perr.get(*m).map(|(set, e, se, _)| format!("{} {} ({})", m.to_uppercase(), pct(*e, *se), esc(set)))).collect::<Vec<_>>().join("; "),
+                    ms.iter().filter_map(|m| perr.get(*m).map(|(_, _, _, w)| format!("{} {:.1} s", m.to_uppercase(), w))).collect::<Vec<_>>().join("; "),
+                )
+            };
+            let _ = write!(
+                ervt,
+                "<tr><td><a href=\"#{i}\">{i}</a></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(profile),
+                e_cell,
+                w_cell,
+                stage_wall.map(|w| format!("{w:.1} s")).unwrap_or_default(),
+                i = esc(id)
+            );
+        }
+        let _ = write!(body, "<figure id=\"{i}\"><h3>{i}</h3>", i = esc(id));
+        if has_svg {
             let _ = write!(body, "<img src=\"{i}.svg\" alt=\"{i}\" style=\"max-width:100%\">", i = esc(id));
         }
         let _ = write!(
             body,
-            "<figcaption><p>{}</p><p><small>profile {} · kind {} v{} · wall {} s · <a href=\"{i}.csv\">table (CSV)</a> · <a href=\"{i}.json\">scalars</a> · <a href=\"{i}.record.json\">run record</a></small></p>",
+            "<figcaption><p>{}</p><p><small>profile {} · kind {} v{} · wall {} s{} · <a href=\"{i}.csv\">table (CSV)</a> · <a href=\"{i}.json\">scalars</a> · <a href=\"{i}.record.json\">run record</a></small></p>",
             esc(caption),
             esc(profile),
             esc(rec.get("kind").and_then(|v| v.as_str()).unwrap_or("?")),
             rec.get("solver_version").map(|v| v.to_string()).unwrap_or_default(),
             rec.get("wall_s").and_then(|v| v.as_f64()).map(|w| format!("{w:.2}")).unwrap_or_default(),
+            if err_note.is_empty() { String::new() } else { format!(" · {} (wp-summary)", esc(&err_note.join("; "))) },
             i = esc(id)
         );
         if let Some(notes) = rec.get("notes").and_then(|n| n.as_array()) {
@@ -70,85 +215,96 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
                 let _ = write!(body, "<p><small>{}</small></p>", esc(n.as_str().unwrap_or("")));
             }
         }
-        if let Some(claims) = res.get("claims").and_then(|c| c.as_array()).filter(|c| !c.is_empty()) {
+        if !stage_claims.is_empty() {
             body.push_str("<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th><th>tolerance</th><th>verdict</th></tr>");
-            for c in claims {
-                let pass = c.get("pass").and_then(|p| p.as_bool()).unwrap_or(false);
-                let calibrated = c.get("calibrated").and_then(|p| p.as_bool()).unwrap_or(false);
-                if calibrated {
-                    n_calibrated += 1;
-                } else if pass {
-                    n_pass += 1
-                } else {
-                    n_fail += 1
-                }
+            for c in &stage_claims {
                 let _ = write!(
                     body,
                     "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}{}</td><td>{}</td><td class=\"{}\">{}</td></tr>",
-                    esc(c.get("id").and_then(|v| v.as_str()).unwrap_or("")),
-                    esc(c.get("statement").and_then(|v| v.as_str()).unwrap_or("")),
-                    num(&c["paper"]),
-                    num(&c["ours"]),
-                    if calibrated { " <b>(calibrated)</b>" } else { "" },
-                    num(&c["tolerance"]),
-                    if pass { "pass" } else { "fail" },
-                    match (pass, calibrated) {
-                        (true, false) => "pass",
-                        (false, false) => "FAIL",
-                        (true, true) => "pass — calibrated, not a reproduction",
-                        (false, true) => "FAIL — calibrated",
-                    }
+                    esc(&c.id),
+                    esc(&c.statement),
+                    num(&c.paper),
+                    num(&c.ours),
+                    if c.calibrated { " <b>(calibrated)</b>" } else { "" },
+                    num(&c.tol),
+                    if c.pass { "pass" } else { "fail" },
+                    verdict(c.pass, c.calibrated)
                 );
             }
             body.push_str("</table>");
         }
-        if let Some(checks) = res.get("checks").and_then(|c| c.as_array()).filter(|c| !c.is_empty()) {
-            body.push_str("<details><summary><small>consistency checks (inputs and identities; not claims)</small></summary><table><tr><th>check</th><th>statement</th><th>expected</th><th>ours</th><th>tolerance</th><th></th></tr>");
-            for c in checks {
-                let pass = c.get("pass").and_then(|p| p.as_bool()).unwrap_or(false);
-                if pass { n_check_pass += 1 } else { n_check_fail += 1 }
-                let _ = write!(
-                    body,
-                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>",
-                    esc(c.get("id").and_then(|v| v.as_str()).unwrap_or("")),
-                    esc(c.get("statement").and_then(|v| v.as_str()).unwrap_or("")),
-                    num(&c["paper"]),
-                    num(&c["ours"]),
-                    num(&c["tolerance"]),
-                    if pass { "pass" } else { "fail" },
-                    if pass { "ok" } else { "FAIL" }
-                );
-            }
-            body.push_str("</table></details>");
+        if !stage_checks.is_empty() {
+            let failed = stage_checks.iter().filter(|c| !c.pass).count();
+            let _ = write!(body, "<p><small>{} consistency check(s), {failed} failed — listed under <a href=\"#checks\">input and consistency checks</a></small></p>", stage_checks.len());
         }
         body.push_str("</figcaption></figure>\n");
+        claims[*sec].extend(stage_claims);
+        checks.extend(stage_checks);
     }
+    // summary of the claims, per section
+    let all: Vec<&ClaimRow> = claims.iter().flatten().collect();
+    let (n_pass, n_fail, n_cal) = (all.iter().filter(|c| c.pass && !c.calibrated).count(), all.iter().filter(|c| !c.pass && !c.calibrated).count(), all.iter().filter(|c| c.calibrated).count());
+    let (n_check_pass, n_check_fail) = (checks.iter().filter(|c| c.pass).count(), checks.iter().filter(|c| !c.pass).count());
     let _ = write!(
         h,
-        "<p>{} stages · <b>claims of the chapter: {n_pass} reproduced, {n_fail} not reproduced</b>, {n_calibrated} rest on a calibrated parameter (not counted) · consistency checks (inputs, identities; not claims): {n_check_pass} ok, {n_check_fail} failed</p>",
+        "<p>{} stages · <b>claims of the chapter: {n_pass} reproduced, {n_fail} not reproduced</b>, {n_cal} rest on a calibrated parameter (not counted) · consistency checks (inputs, identities; not claims): {n_check_pass} ok, {n_check_fail} failed</p>",
         ids.len()
     );
+    h.push_str("<h2>Claims, section by section</h2><table><tr><th>section</th><th>reproduced</th><th>not reproduced</th><th>calibrated (not counted)</th><th>claims</th></tr>");
+    for (k, cs) in claims.iter().enumerate() {
+        if cs.is_empty() {
+            continue;
+        }
+        let list: Vec<String> = cs.iter().map(|c| format!("<a href=\"#{s}\">{s}</a>: {} <span class=\"{}\">{}</span>", esc(&c.id), if c.pass { "pass" } else { "fail" }, verdict(c.pass, c.calibrated), s = esc(&c.stage))).collect();
+        let _ = write!(
+            h,
+            "<tr><td><a href=\"#section-{k}\">{}</a></td><td>{}</td><td>{}</td><td>{}</td><td><small>{}</small></td></tr>",
+            esc(SECTIONS[k]),
+            cs.iter().filter(|c| c.pass && !c.calibrated).count(),
+            cs.iter().filter(|c| !c.pass && !c.calibrated).count(),
+            cs.iter().filter(|c| c.calibrated).count(),
+            list.join("<br>")
+        );
+    }
+    h.push_str("</table>");
+    h.push_str("<h2 id=\"error-vs-run-time\">Error vs run time</h2>");
+    if perr.is_empty() {
+        h.push_str("<p><small>The work-precision atlas (<code>wp-summary</code>) has not been run for this profile: no measured errors to show.</small></p>");
+    } else {
+        let _ = write!(h, "<p><small>One row per figure: the measured error of its method at the {p} profile's setting (relative to that method's finest setting, ± standard error over an ensemble where one was run) and the wall time of one run at that setting, both read from <a href=\"#wp-summary\">wp-summary</a>; the last column is the wall time of the figure's own stage.</small></p>", p = esc(profile));
+    }
+    h.push_str("<table><tr><th>figure</th><th>profile</th><th>measured error (setting)</th><th>one run at that setting</th><th>stage wall time</th></tr>");
+    h.push_str(&ervt);
+    h.push_str("</table>");
     h.push_str(&body);
+    h.push_str("<h2 id=\"checks\">Input and consistency checks</h2><p><small>Numbers decided by our inputs and identities (k_n = 4ER, d_max/d_min, energy balance, settling): they show the runs are what they claim to be and are never counted as reproduced claims.</small></p>");
+    if !checks.is_empty() {
+        h.push_str("<table><tr><th>stage</th><th>check</th><th>statement</th><th>expected</th><th>ours</th><th>tolerance</th><th></th></tr>");
+        for c in &checks {
+            let _ = write!(
+                h,
+                "<tr><td><a href=\"#{s}\">{s}</a></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>",
+                esc(&c.id),
+                esc(&c.statement),
+                num(&c.paper),
+                num(&c.ours),
+                num(&c.tol),
+                if c.pass { "pass" } else { "fail" },
+                if c.pass { "ok" } else { "FAIL" },
+                s = esc(&c.stage)
+            );
+        }
+        h.push_str("</table>");
+    }
     h.push_str("</body></html>\n");
     crate::pipeline::cache::write_atomic(&dir.join("index.html"), h.as_bytes())
 }
 
-/// Sort key that orders `fig4-2` before `fig4-10`.
-fn natural_key(s: &str) -> Vec<(String, u64)> {
-    let mut out = Vec::new();
-    let mut text = String::new();
-    let mut digits = String::new();
-    for c in s.chars() {
-        if c.is_ascii_digit() {
-            digits.push(c);
-        } else {
-            if !digits.is_empty() {
-                out.push((std::mem::take(&mut text), digits.parse().unwrap_or(0)));
-                digits.clear();
-            }
-            text.push(c);
-        }
+fn verdict(pass: bool, calibrated: bool) -> &'static str {
+    match (pass, calibrated) {
+        (true, false) => "pass",
+        (false, false) => "FAIL",
+        (true, true) => "pass — calibrated, not a reproduction",
+        (false, true) => "FAIL — calibrated",
     }
-    out.push((text, digits.parse().unwrap_or(0)));
-    out
 }

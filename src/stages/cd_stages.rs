@@ -253,6 +253,9 @@ impl Validate for WpParams {
         for (k, v) in self.variants.iter().enumerate() {
             c.positive(&format!("variants[{k}].dt"), v.dt);
             c.in_open(&format!("variants[{k}].tolerance"), v.tolerance, 0.0, 0.1);
+            if let (true, Err(m)) = (v.dt > 0.0 && self.v0 > 0.0 && self.deposit.scale > 0.0, self.cd.step_preflight(v.dt, 0.8 * self.deposit.scale, self.v0)) {
+                c.fail(&format!("variants[{k}].dt"), v.dt, &format!("a step that cannot miss a contact — {m}"));
+            }
         }
         c.check(self.deposit.ncol >= 3 && self.deposit.nrow >= 2, "deposit", format!("{}x{}", self.deposit.ncol, self.deposit.nrow), "at least 3 columns and 2 rows");
         c.positive("deposit.scale", self.deposit.scale);

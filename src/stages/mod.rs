@@ -24,6 +24,7 @@ pub mod plot;
 pub mod psd;
 pub mod snapshot;
 pub mod tables;
+pub mod wp_summary;
 
 /// A parameter problem found by a kind's schema.
 #[derive(Debug, Clone)]
@@ -135,6 +136,7 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         mpm_stages::GEOSTATIC_KIND,
         mpm_stages::COLLAPSE_KIND,
         mpm_stages::WP_KIND,
+        wp_summary::KIND,
         plot::KIND,
         compare::KIND,
         snapshot::KIND,

@@ -241,6 +241,11 @@ impl Validate for CollapseParams {
         let mut c = Checker::new("");
         check_mpm(&self.mpm, &mut c);
         c.in_closed("a", self.a, 0.05, 20.0);
+        if c.issues.is_empty() && self.area_m2 > 0.0 {
+            if let Err(m) = crate::mpm::preflight::containment(&self.mpm, crate::mpm::column::ColumnSpec::from_area(self.a, self.area_m2)) {
+                c.fail("mpm.wall_friction", self.mpm.wall_friction, &m);
+            }
+        }
         c.check(self.area_m2.is_finite() && self.area_m2 > 1e-6 && self.area_m2 < 10.0, "area_m2", self.area_m2, "in (1e-6, 10) m²");
         c.positive("run.sample_every_tau", self.run.sample_every_tau);
         c.check(self.run.max_time_tau > self.run.min_time_tau, "run.max_time_tau", self.run.max_time_tau, "> run.min_time_tau");
