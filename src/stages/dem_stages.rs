@@ -566,7 +566,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "dem-collapse",
-    version: 5,
+    version: 6,
     about: "DEM granular column collapse: L(t), H(t), energy ledger, until at rest",
     params: typed::<CollapseStageParams>,
     run: run_collapse_stage,

@@ -448,7 +448,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "mpm-collapse",
-    version: 7,
+    version: 8,
     about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
     params: typed::<CollapseParams>,
     run: run_collapse_stage,
