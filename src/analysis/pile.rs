@@ -315,3 +315,14 @@ mod tests {
         assert!((a - 0.25f64.atan().to_degrees()).abs() < 0.8, "slope {a}");
     }
 }
+
+/// One sample of a grain state (DEM or CD pile, both on `dem::State`): D01 front and height
+/// with the given link, translational kinetic energy by component and the rotational one.
+pub fn grain_sample(t: f64, st: &crate::dem::state::State, link: crate::analysis::front::Link) -> Sample {
+    use crate::analysis::front::{Body, front};
+    let f = front(&Body { x: &st.x, y: &st.y, half: &st.r, mass: &st.m }, link);
+    let ekx = kinetic(&st.m, &st.vx);
+    let eky = kinetic(&st.m, &st.vy);
+    let erot: f64 = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
+    Sample { t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
+}

@@ -210,8 +210,8 @@ pub fn run_excited_pile(
     e0: Real,
     stop: &crate::analysis::pile::StopRule,
 ) -> Result<crate::dem::pile::PileRun, CdError> {
-    use crate::analysis::front::{Body, Link, front};
-    use crate::analysis::pile::{Sample, excitation, kinetic};
+    use crate::analysis::front::Link;
+    use crate::analysis::pile::{Sample, excitation, grain_sample, kinetic};
     let mut s = pile.clone();
     s.stop();
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
@@ -223,14 +223,7 @@ pub fn run_excited_pile(
     let h_max = params.dt;
     let mut w = World::new(params.clone(), s, vec![Wall::floor(0.0), Wall::left(0.0)], None)?;
     let g = params.gravity;
-    let rec = |w: &World| -> Sample {
-        let st = &w.state;
-        let f = front(&Body { x: &st.x, y: &st.y, half: &st.r, mass: &st.m }, link);
-        let ekx = kinetic(&st.m, &st.vx);
-        let eky = kinetic(&st.m, &st.vy);
-        let erot: Real = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
-        Sample { t: w.t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
-    };
+    let rec = |w: &World| -> Sample { grain_sample(w.t, &w.state, link) };
     let mut samples = vec![rec(&w)];
     let l0 = samples[0].l;
     let dts = stop.dt_sample(g);

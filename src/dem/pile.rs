@@ -5,7 +5,7 @@
 //! fastest grain slower than `settle_speed` √(g d̄), checked every 1 ms of simulated time).
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Profile, Sample, StopRule, excitation, kinetic};
+use crate::analysis::pile::{Profile, Sample, StopRule, excitation, grain_sample, kinetic};
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
 use crate::dem::prep::{DepositionParams, ballistic_deposition, box_walls, quench};
@@ -126,14 +126,7 @@ pub fn run_pile(pile: &State, params: &DemParams, profile: Profile, e0: Real, st
     p.ledger = false;
     let mut w = World::new(p, s, pile_walls(), None)?;
     let g = params.gravity;
-    let rec = |w: &World| -> Sample {
-        let st = &w.state;
-        let f = front(&Body { x: &st.x, y: &st.y, half: &st.r, mass: &st.m }, link);
-        let ekx = kinetic(&st.m, &st.vx);
-        let eky = kinetic(&st.m, &st.vy);
-        let erot: Real = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
-        Sample { t: w.t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
-    };
+    let rec = |w: &World| -> Sample { grain_sample(w.t, &w.state, link) };
     let mut samples = vec![rec(&w)];
     let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
