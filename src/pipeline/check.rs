@@ -116,6 +116,11 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "dem-collapse" | "dem-compress" | "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne)],
         "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
         "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
+        // Column study, rest (issue 9): figs 4.12, 4.15, 4.17, 4.19–4.21.
+        "column-scheme" => vec![("run", One)],
+        "column-inertial" => vec![("mui04", One), ("mui6", One), ("mc04", One), ("mc6", One), ("dem04", One), ("dem6", One)],
+        "column-packing" => vec![("loose", One), ("dense", One)],
+        "column-density-pair" => vec![("loose", One), ("dense", One), ("loose_prep", One), ("dense_prep", One), ("emin", One), ("emax", One)],
         // Free role names, checked against the declaration in `check_roles`.
         "plot" | "sweep-compare" | "snapshot" => vec![],
         "power-law-fit" => {

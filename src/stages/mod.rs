@@ -140,6 +140,10 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         plot::KIND,
         compare::KIND,
         snapshot::KIND,
+        column_analysis::SCHEME_KIND,
+        column_analysis::INERTIAL_KIND,
+        column_analysis::PACKING_KIND,
+        column_analysis::PAIR_KIND,
     ];
     kinds.into_iter().map(|k| (k.name, k)).collect()
 }
