@@ -22,6 +22,7 @@ pub mod mpm_stages;
 pub mod pile_stages;
 pub mod pile_series;
 pub mod energy_runout;
+pub mod pile_packing;
 pub mod plot;
 pub mod psd;
 pub mod snapshot;
@@ -132,6 +133,7 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         pile_stages::RUNOUT_KIND,
         pile_series::KIND,
         energy_runout::KIND,
+        pile_packing::KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
         cd_stages::SHEAR_KIND,
