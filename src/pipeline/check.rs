@@ -105,6 +105,9 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "cd-work-precision" => vec![],
         "pile-run" => vec![("pile", One), ("shear", OptionalOne)],
         "pile-runout" => vec![("runs", Many)],
+        "pile-series" => vec![("runs", Many)],
+        "pile-packing" => vec![("pile", One)],
+        "energy-runout" => vec![("col_dem", Many), ("col_mpm", Many), ("pile_dem", One), ("pile_mpm", One)],
         "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],
