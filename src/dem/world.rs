@@ -478,17 +478,34 @@ impl World {
         let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
         chunked(np, PAIR_CHUNK, &mut self.partials, move |lo, hi| {
             let mut part = Partial::default();
+            // Pass 1, branch-free: the pairs with work to do (touching, or separated with a
+            // history still to drop), in pair order. A separated pair found separated before
+            // has nothing left to drop and is skipped: whether a pair touches follows no
+            // pattern along the list, and as a branch it was mispredicted pair after pair.
+            let mut todo = [0u16; PAIR_CHUNK];
+            let mut n_todo = 0usize;
             for k in lo..hi {
                 let (i, j) = (pi[k] as usize, pj[k] as usize);
                 let dx = x[i] - (x[j] + shift[k] * lx);
                 let dy = y[i] - y[j];
                 let rsq = dx * dx + dy * dy;
                 let radsum = r[i] + r[j];
-                // cheapest rejection first: separated → drop history (once: a pair found
-                // separated before has nothing left to drop)
+                let touching = !(rsq >= radsum * radsum);
+                let work = touching | unsafe { live.get(k) != 0 };
+                todo[n_todo] = (k - lo) as u16;
+                n_todo += usize::from(work);
+            }
+            // Pass 2: those pairs in order, with the same arithmetic as a single pass.
+            for &o in &todo[..n_todo] {
+                let k = lo + o as usize;
+                let (i, j) = (pi[k] as usize, pj[k] as usize);
+                let dx = x[i] - (x[j] + shift[k] * lx);
+                let dy = y[i] - y[j];
+                let rsq = dx * dx + dy * dy;
+                let radsum = r[i] + r[j];
+                // separated → drop history (once)
                 if rsq >= radsum * radsum {
                     unsafe {
-                        if live.get(k) == 0 { continue; }
                         live.set(k, 0);
                         let h = hist.get(k);
                         if h != ContactState::default() {
