@@ -1,7 +1,10 @@
 //! The DEM world and its step, a list of named phases:
 //!
-//! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` →
-//! `apply_walls` → `integrate(second half kick)` → `ledger` → `watchdog`.
+//! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` (pair
+//! pass) → `grain_pass` (per grain chunk: force gather, grain–wall contacts, second half
+//! kick) → `integrate(rolling dashpot)` → `ledger` → `watchdog`. The phase timers keep the
+//! names contacts / gather / walls / integrate; the grain pass's wall time is apportioned to
+//! them by each part's CPU time per chunk.
 //!
 //! Velocity Verlet (kick–drift–kick); contact forces at x^{n+1} use v^{n+½} (as LAMMPS
 //! `fix nve/sphere`). Physics terms are picked once per [`World::run`] call by matching
