@@ -43,27 +43,29 @@ impl World {
         }
         let force_rebuild = self.nl.x0.len() != self.state.len();
         let moved = if IMP {
-            self.kick_pass::<L, false>();
+            // the dashpot sweep changes spins only: x, y drift with the kick, θ after the sweep
+            let moved = self.kick_pass::<L, true, false>();
             self.rolling_dashpot::<L>();
-            self.drift_pass()
+            self.theta_pass();
+            moved
         } else {
-            self.kick_pass::<L, true>()
+            self.kick_pass::<L, true, true>()
         };
         moved || force_rebuild
     }
 
-    /// Second half kick.
+    /// After the second half kick (done per chunk by the grain pass of the force
+    /// evaluation, `World::grain_pass`): the implicit rolling dashpot.
     pub(crate) fn integrate_second_half<const IMP: bool, const L: bool>(&mut self) {
-        self.kick_pass::<L, false>();
         if IMP {
             self.rolling_dashpot::<L>();
         }
     }
 
     /// Half kick of every grain with the explicit forces and moments, then (if `DRIFT`)
-    /// x ← x + Δt v, θ ← θ + Δt ω and the skin check. Returns whether a grain moved more
-    /// than skin/2 since the last build.
-    fn kick_pass<const L: bool, const DRIFT: bool>(&mut self) -> bool {
+    /// x ← x + Δt v, (if `THETA`) θ ← θ + Δt ω, and the skin check. Returns whether a grain
+    /// moved more than skin/2 since the last build.
+    fn kick_pass<const L: bool, const DRIFT: bool, const THETA: bool>(&mut self) -> bool {
         let dt = self.params.dt;
         let h = 0.5 * dt;
         let s = &mut self.state;
@@ -80,20 +82,9 @@ impl World {
             let mut part = Partial::default();
             for a in lo..hi {
                 unsafe {
-                    let im = inv_m[a];
-                    let (vxa, vya, wa) = (vx.get(a), vy.get(a), w.get(a));
-                    if L && im == 0.0 {
-                        // driver keeps the prescribed velocity against contacts and gravity
-                        part.ledger.external_work -= h * (fx[a] * vxa + fy[a] * vya + tq[a] * wa);
-                    }
-                    let vxn = vxa + h * im * fx[a];
-                    let vyn = vya + h * im * fy[a];
-                    let wn = wa + h * inv_i[a] * tq[a];
-                    vx.set(a, vxn);
-                    vy.set(a, vyn);
-                    w.set(a, wn);
+                    let (vxn, vyn, wn) = kick_one::<L>(a, h, inv_m[a], inv_i[a], (fx[a], fy[a], tq[a]), (vx, vy, w), &mut part);
                     if DRIFT {
-                        part.moved |= drift_one(a, dt, (vxn, vyn, wn), (x, y, th), have_x0.then_some((x0, y0)), lim);
+                        part.moved |= drift_one::<THETA>(a, dt, (vxn, vyn, wn), (x, y, th), have_x0.then_some((x0, y0)), lim);
                     }
                 }
             }
@@ -109,26 +100,13 @@ impl World {
         tot.moved
     }
 
-    /// x ← x + Δt v, θ ← θ + Δt ω, and the skin check (after the implicit dashpot).
-    fn drift_pass(&mut self) -> bool {
+    /// θ ← θ + Δt ω (after the implicit dashpot sweep; x and y drifted with the kick).
+    fn theta_pass(&mut self) {
         let dt = self.params.dt;
         let s = &mut self.state;
-        let n = s.len();
-        let (vx, vy, w) = (U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]));
-        let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
-        let lim = 0.25 * self.nl.skin * self.nl.skin;
-        let have_x0 = self.nl.x0.len() == n;
-        let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
-        chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
-            let mut part = Partial::default();
-            for a in lo..hi {
-                unsafe {
-                    part.moved |= drift_one(a, dt, (vx[a], vy[a], w[a]), (x, y, th), have_x0.then_some((x0, y0)), lim);
-                }
-            }
-            part
-        });
-        self.partials.iter().any(|p| p.moved)
+        for (th, w) in s.theta.iter_mut().zip(&s.w) {
+            *th += dt * w;
+        }
     }
 
     /// One sweep of pairwise backward-Euler rolling-dashpot impulses over a half step
@@ -170,19 +148,44 @@ impl World {
     }
 }
 
-/// Drift of grain `a`: x ← x + Δt v, θ ← θ + Δt ω; returns whether it moved more than
-/// √lim from its position at the last neighbour build (if known).
+/// Half kick of grain `a` with forces (fx, fy, tq): returns the new (vx, vy, ω), books a
+/// driver's work on a prescribed grain (1/m = 0) in `part`.
+///
+/// # Safety
+/// `a` is in bounds of the arrays behind `vx`, `vy`, `w`, and no other thread writes index `a`.
+#[inline(always)]
+pub(crate) unsafe fn kick_one<const L: bool>(a: usize, h: Real, im: Real, ii: Real, (fx, fy, tq): (Real, Real, Real), (vx, vy, w): (Ptr<Real>, Ptr<Real>, Ptr<Real>), part: &mut Partial) -> (Real, Real, Real) {
+    unsafe {
+        let (vxa, vya, wa) = (vx.get(a), vy.get(a), w.get(a));
+        if L && im == 0.0 {
+            // driver keeps the prescribed velocity against contacts and gravity
+            part.ledger.external_work -= h * (fx * vxa + fy * vya + tq * wa);
+        }
+        let vxn = vxa + h * im * fx;
+        let vyn = vya + h * im * fy;
+        let wn = wa + h * ii * tq;
+        vx.set(a, vxn);
+        vy.set(a, vyn);
+        w.set(a, wn);
+        (vxn, vyn, wn)
+    }
+}
+
+/// Drift of grain `a`: x ← x + Δt v, (if `THETA`) θ ← θ + Δt ω; returns whether it moved
+/// more than √lim from its position at the last neighbour build (if known).
 ///
 /// # Safety
 /// `a` is in bounds of the arrays behind `x`, `y`, `th`, and no other thread writes index `a`.
 #[inline(always)]
-unsafe fn drift_one(a: usize, dt: Real, (vx, vy, w): (Real, Real, Real), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
+unsafe fn drift_one<const THETA: bool>(a: usize, dt: Real, (vx, vy, w): (Real, Real, Real), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
     unsafe {
         let xa = x.get(a) + dt * vx;
         let ya = y.get(a) + dt * vy;
         x.set(a, xa);
         y.set(a, ya);
-        th.set(a, th.get(a) + dt * w);
+        if THETA {
+            th.set(a, th.get(a) + dt * w);
+        }
         match x0y0 {
             Some((x0, y0)) => {
                 let (dx, dy) = (xa - x0[a], ya - y0[a]);

@@ -17,6 +17,7 @@ use crate::dem::state::{Motion, State};
 use crate::dem::world::World;
 use crate::math::Real;
 use serde::{Deserialize, Serialize};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Shear-test settings (UNSPEC values from the SC-SHEAR-DEM proposal).
@@ -186,57 +187,10 @@ pub fn shear_test(radii: &[Real], params: &DemParams, sp: &ShearParams) -> Resul
     let mut p = params.clone();
     p.gravity = 0.0;
     p.ledger = false;
-    let mut points = Vec::new();
-    for &pres in &sp.pressures {
-        let started = Instant::now();
-        let cell = build_cell(radii, sp, p.density);
-        let mut w = World::new(p.clone(), cell.state, vec![], Some(cell.lx))?;
-        w.energy_check = false;
-        w.preflight()?;
-        let top = cell.top;
-        let m_top: Real = top.iter().map(|&i| w.state.m[i]).sum();
-        let dt = p.dt;
-        let mut vy = 0.0;
-        // compaction under P: in chunks of 1 ms until the sample carries P (±2 %) with the
-        // layer at rest, or `compaction_time` has passed
-        let n_chunk = ((1e-3 / dt).ceil() as u64).max(1);
-        let mut t_comp = 0.0;
-        loop {
-            let (_, sy) = drive(&mut w, &top, m_top, cell.lx, pres, 0.0, &mut vy, n_chunk, 0.25)?;
-            t_comp += n_chunk as Real * dt;
-            let sig = sy / (n_chunk as Real * cell.lx);
-            let v_cap = 0.25 * (pres / p.density).sqrt();
-            if ((sig - pres).abs() < 0.02 * pres && vy.abs() < 0.01 * v_cap) || t_comp >= sp.compaction_time {
-                break;
-            }
-        }
-        let h0 = mean_y(&w.state, &top) - mean_y(&w.state, &cell.bottom);
-        let gdot = sp.inertial_number * (pres / p.density).sqrt() / cell.d_mean;
-        let v = gdot * h0;
-        let n_total = (sp.strain / gdot / dt).ceil() as u64;
-        let n_sample = ((sp.sample_strain / gdot / dt).ceil() as u64).max(1);
-        let mut series = Vec::new();
-        let mut done = 0u64;
-        let (mut acc_x, mut acc_y, mut acc_n) = (0.0, 0.0, 0u64);
-        while done < n_total {
-            let k = n_sample.min(n_total - done);
-            let (sx, sy) = drive(&mut w, &top, m_top, cell.lx, pres, v, &mut vy, k, 0.25)?;
-            done += k;
-            let h = mean_y(&w.state, &top) - mean_y(&w.state, &cell.bottom);
-            let strain = v * done as Real * dt / h0;
-            let smp = ShearSample { strain, tau: -sx / (k as Real * cell.lx), sigma_n: sy / (k as Real * cell.lx), height: h };
-            series.push(smp);
-            if strain >= sp.average_from * sp.strain {
-                acc_x += sx;
-                acc_y += sy;
-                acc_n += k;
-            }
-        }
-        let tau = -acc_x / (acc_n.max(1) as Real * cell.lx);
-        let sigma_n = acc_y / (acc_n.max(1) as Real * cell.lx);
-        let inertial_number = gdot * cell.d_mean / (sigma_n.max(1e-12) / p.density).sqrt();
-        points.push(ShearPoint { pressure: pres, tau, sigma_n, mu: tau / sigma_n, inertial_number, velocity: v, series, wall_s: started.elapsed().as_secs_f64() });
-    }
+    // The pressures are independent cells: run them side by side (each cell is small and
+    // steps on one thread, PAR_MIN_ITEMS); results in pressure order, identical to a
+    // sequential loop.
+    let points = sp.pressures.par_iter().map(|&pres| shear_point(radii, &p, sp, pres)).collect::<Result<Vec<_>, DemError>>()?;
     // fits
     let sxy: Real = points.iter().map(|q| q.sigma_n * q.tau).sum();
     let sxx: Real = points.iter().map(|q| q.sigma_n * q.sigma_n).sum();
@@ -257,4 +211,56 @@ pub fn shear_test(radii: &[Real], params: &DemParams, sp: &ShearParams) -> Resul
         grains: radii.len(),
         points,
     })
+}
+
+/// One pressure of the shear test: compaction under `pres`, then shear to `sp.strain`.
+fn shear_point(radii: &[Real], p: &DemParams, sp: &ShearParams, pres: Real) -> Result<ShearPoint, DemError> {
+    let started = Instant::now();
+    let cell = build_cell(radii, sp, p.density);
+    let mut w = World::new(p.clone(), cell.state, vec![], Some(cell.lx))?;
+    w.energy_check = false;
+    w.preflight()?;
+    let top = cell.top;
+    let m_top: Real = top.iter().map(|&i| w.state.m[i]).sum();
+    let dt = p.dt;
+    let mut vy = 0.0;
+    // compaction under P: in chunks of 1 ms until the sample carries P (±2 %) with the
+    // layer at rest, or `compaction_time` has passed
+    let n_chunk = ((1e-3 / dt).ceil() as u64).max(1);
+    let mut t_comp = 0.0;
+    loop {
+        let (_, sy) = drive(&mut w, &top, m_top, cell.lx, pres, 0.0, &mut vy, n_chunk, 0.25)?;
+        t_comp += n_chunk as Real * dt;
+        let sig = sy / (n_chunk as Real * cell.lx);
+        let v_cap = 0.25 * (pres / p.density).sqrt();
+        if ((sig - pres).abs() < 0.02 * pres && vy.abs() < 0.01 * v_cap) || t_comp >= sp.compaction_time {
+            break;
+        }
+    }
+    let h0 = mean_y(&w.state, &top) - mean_y(&w.state, &cell.bottom);
+    let gdot = sp.inertial_number * (pres / p.density).sqrt() / cell.d_mean;
+    let v = gdot * h0;
+    let n_total = (sp.strain / gdot / dt).ceil() as u64;
+    let n_sample = ((sp.sample_strain / gdot / dt).ceil() as u64).max(1);
+    let mut series = Vec::new();
+    let mut done = 0u64;
+    let (mut acc_x, mut acc_y, mut acc_n) = (0.0, 0.0, 0u64);
+    while done < n_total {
+        let k = n_sample.min(n_total - done);
+        let (sx, sy) = drive(&mut w, &top, m_top, cell.lx, pres, v, &mut vy, k, 0.25)?;
+        done += k;
+        let h = mean_y(&w.state, &top) - mean_y(&w.state, &cell.bottom);
+        let strain = v * done as Real * dt / h0;
+        let smp = ShearSample { strain, tau: -sx / (k as Real * cell.lx), sigma_n: sy / (k as Real * cell.lx), height: h };
+        series.push(smp);
+        if strain >= sp.average_from * sp.strain {
+            acc_x += sx;
+            acc_y += sy;
+            acc_n += k;
+        }
+    }
+    let tau = -acc_x / (acc_n.max(1) as Real * cell.lx);
+    let sigma_n = acc_y / (acc_n.max(1) as Real * cell.lx);
+    let inertial_number = gdot * cell.d_mean / (sigma_n.max(1e-12) / p.density).sqrt();
+    Ok(ShearPoint { pressure: pres, tau, sigma_n, mu: tau / sigma_n, inertial_number, velocity: v, series, wall_s: started.elapsed().as_secs_f64() })
 }

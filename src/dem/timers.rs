@@ -11,11 +11,11 @@ pub struct PhaseTimers {
     pub neighbors: f64,
     /// `compute_contacts`, pair pass (forces per listed pair).
     pub contacts: f64,
-    /// `compute_contacts`, per-grain gather of pair forces in fixed order (+ gravity).
+    /// Per-grain gather of pair forces in fixed order (+ gravity), the first part of `grain_pass`.
     pub gather: f64,
-    /// `apply_walls`.
+    /// Grain–wall contacts (the wall part of `grain_pass`).
     pub walls: f64,
-    /// `integrate` (both half kicks and the drift).
+    /// `integrate` (both half kicks, the second one inside `grain_pass`, and the drift).
     pub integrate: f64,
     /// Implicit rolling dashpot sweeps (both half kicks).
     #[serde(default)]

@@ -1,7 +1,10 @@
 //! The DEM world and its step, a list of named phases:
 //!
-//! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` →
-//! `apply_walls` → `integrate(second half kick)` → `ledger` → `watchdog`.
+//! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` (pair
+//! pass) → `grain_pass` (per grain chunk: force gather, grain–wall contacts, second half
+//! kick) → `integrate(rolling dashpot)` → `ledger` → `watchdog`. The phase timers keep the
+//! names contacts / gather / walls / integrate; the grain pass's wall time is apportioned to
+//! them by each part's CPU time per chunk.
 //!
 //! Velocity Verlet (kick–drift–kick); contact forces at x^{n+1} use v^{n+½} (as LAMMPS
 //! `fix nve/sphere`). Physics terms are picked once per [`World::run`] call by matching
@@ -22,6 +25,7 @@ use crate::dem::preflight::{Preflight, SizeClasses, preflight};
 use crate::dem::state::{ContactState, State};
 use crate::dem::timers::PhaseTimers;
 use crate::dem::walls::Wall;
+use crate::dem::integrate::kick_one;
 use crate::math::{Real, Vec2};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -111,6 +115,27 @@ impl Partial {
     }
 }
 
+/// What one chunk of the fused grain pass returns: the wall pass's partial, the kick's
+/// partial (merged apart, in chunk order, exactly as the separate passes did) and the CPU
+/// seconds of its three parts (gather, walls, kick), by which the pass's wall time is
+/// apportioned to the phase timers.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct GrainChunk {
+    pub walls: Partial,
+    pub kick: Partial,
+    pub secs: [f64; 3],
+}
+
+/// A new largest overlap fraction in a chunk: rare (a few times per chunk), so kept out of
+/// the pair loop (the division is not evaluated for every contact).
+#[cold]
+#[inline(never)]
+fn new_max_overlap(part: &mut Partial, overlap: Real, dmin: Real, i: usize, j: usize) {
+    part.max_overlap = overlap / dmin;
+    part.max_i = i as u32;
+    part.max_j = j as u32;
+}
+
 /// Below this many items a loop runs on the calling thread. A parallel region costs the
 /// pool a wake-up and a join (futex/sched_yield: at a few hundred grains, twice the time
 /// of the physics, and most of it in the kernel); small scenes gain more from running
@@ -194,6 +219,8 @@ pub struct World {
     /// The same per grain–wall slot (`wall * n + grain`).
     pub(crate) wlive: Vec<u8>,
     pub(crate) partials: Vec<Partial>,
+    /// Per-chunk results of the fused grain pass (gather + walls + second half kick).
+    pub(crate) gpartials: Vec<GrainChunk>,
     pub(crate) forces_valid: bool,
     /// Inactive walls whose contact histories have been released.
     pub(crate) wall_cleared: [bool; MAX_WALLS],
@@ -241,6 +268,7 @@ impl World {
             plive: Vec::new(),
             wlive: Vec::new(),
             partials: Vec::new(),
+            gpartials: Vec::new(),
             forces_valid: false,
         };
         w.resize_scratch();
@@ -367,7 +395,7 @@ impl World {
             self.forces_valid = false;
         }
         if !self.forces_valid {
-            self.compute_forces::<R, IMP, L>(0.0);
+            self.compute_forces::<R, IMP, L, false>(0.0);
             self.forces_valid = true;
         }
         let mut res = Ok(());
@@ -388,7 +416,8 @@ impl World {
         if moved { self.refresh_neighbors(); }
         let t2 = Instant::now();
         self.timers.neighbors += (t2 - t1).as_secs_f64();
-        self.compute_forces::<R, IMP, L>(dt);
+        // contacts, walls and the second half kick (fused per grain chunk)
+        self.compute_forces::<R, IMP, L, true>(dt);
         let t3 = Instant::now();
         self.integrate_second_half::<IMP, L>();
         self.t += dt;
@@ -406,17 +435,21 @@ impl World {
     fn refresh_neighbors(&mut self) { self.rebuild(); }
 
     /// Contact and wall forces at the current positions with the current velocities;
-    /// histories advance by `dt` (0 for the priming evaluation).
-    fn compute_forces<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) {
+    /// histories advance by `dt` (0 for the priming evaluation). With `KICK`, the second
+    /// half kick follows in the same per-chunk pass (see [`World::grain_pass`]).
+    fn compute_forces<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) {
         let t0 = Instant::now();
         (self.paths.rolling_forces, self.paths.ledger) = (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
         let p = self.compute_contacts::<R, IMP, L>(dt);
         let t1 = Instant::now();
         self.timers.contacts += (t1 - t0).as_secs_f64();
-        let q = self.apply_walls::<R, IMP, L>(dt);
+        let (q, k) = self.grain_pass::<R, IMP, L, KICK>(dt);
         let t2 = Instant::now();
-        self.timers.walls += (t2 - t1).as_secs_f64();
         self.ledger_phase::<L>(&p, &q);
+        if KICK && L {
+            // the kick's partial after the contacts', as when the kick was its own pass
+            self.ledger += k.ledger;
+        }
         self.timers.ledger += t2.elapsed().as_secs_f64();
     }
 
@@ -446,19 +479,36 @@ impl World {
         debug_assert_eq!(self.plive.len(), np);
         let live = Ptr(self.plive.as_mut_ptr());
         let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
-        chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| {
+        chunked(np, PAIR_CHUNK, &mut self.partials, move |lo, hi| {
             let mut part = Partial::default();
+            // Pass 1, branch-free: the pairs with work to do (touching, or separated with a
+            // history still to drop), in pair order. A separated pair found separated before
+            // has nothing left to drop and is skipped: whether a pair touches follows no
+            // pattern along the list, and as a branch it was mispredicted pair after pair.
+            let mut todo = [0u16; PAIR_CHUNK];
+            let mut n_todo = 0usize;
             for k in lo..hi {
                 let (i, j) = (pi[k] as usize, pj[k] as usize);
                 let dx = x[i] - (x[j] + shift[k] * lx);
                 let dy = y[i] - y[j];
                 let rsq = dx * dx + dy * dy;
                 let radsum = r[i] + r[j];
-                // cheapest rejection first: separated → drop history (once: a pair found
-                // separated before has nothing left to drop)
+                let touching = !(rsq >= radsum * radsum);
+                let work = touching | unsafe { live.get(k) != 0 };
+                todo[n_todo] = (k - lo) as u16;
+                n_todo += usize::from(work);
+            }
+            // Pass 2: those pairs in order, with the same arithmetic as a single pass.
+            for &o in &todo[..n_todo] {
+                let k = lo + o as usize;
+                let (i, j) = (pi[k] as usize, pj[k] as usize);
+                let dx = x[i] - (x[j] + shift[k] * lx);
+                let dy = y[i] - y[j];
+                let rsq = dx * dx + dy * dy;
+                let radsum = r[i] + r[j];
+                // separated → drop history (once)
                 if rsq >= radsum * radsum {
                     unsafe {
-                        if live.get(k) == 0 { continue; }
                         live.set(k, 0);
                         let h = hist.get(k);
                         if h != ContactState::default() {
@@ -478,9 +528,7 @@ impl World {
                 let overlap = radsum - d;
                 let dmin = 2.0 * r[i].min(r[j]);
                 if overlap > part.max_overlap * dmin {
-                    part.max_overlap = overlap / dmin;
-                    part.max_i = i as u32;
-                    part.max_j = j as u32;
+                    new_max_overlap(&mut part, overlap, dmin, i, j);
                 }
                 let pin = PairIn {
                     n: Vec2::new(dx * inv, dy * inv),
@@ -517,15 +565,41 @@ impl World {
             total.merge(p);
             self.roll.count[c] = p.n_roll[0];
         }
-        let t_gather = Instant::now();
-        // gather per grain, in increasing pair order
+        total
+    }
+
+    /// The per-grain pass after the pair pass, chunk by chunk (one fork-join, each chunk's
+    /// grains stay in cache): (1) gather of the pair forces in increasing pair order plus
+    /// gravity, (2) grain–wall contacts with the same law, walls in order, (3) with `KICK`
+    /// the second half kick. Every grain's arithmetic and every partial sum is in the same
+    /// order as when these were three passes (walls within a chunk: wall by wall, grains in
+    /// order), so the results are bit-identical to them. Returns the wall partial (with the
+    /// released inactive walls first) and the kick partial, each merged in chunk order.
+    fn grain_pass<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) -> (Partial, Partial) {
+        let clock = Instant::now();
+        let mut total = Partial::default();
+        self.release_inactive_walls::<R, IMP, L>(&mut total);
+        let any_wall = self.walls.iter().any(|w| w.active);
+        let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
+        let s = &mut self.state;
         let n = s.len();
+        let walls = &self.walls[..];
         let g = self.params.gravity;
-        let (istart, jstart, jlist) = (U(&nl.istart[..]), U(&nl.jstart[..]), &nl.jlist);
+        let nl = &self.nl;
+        let (istart, jstart, jlist) = (U(&nl.istart[..]), U(&nl.jstart[..]), &nl.jlist[..]);
         let pout = U(&self.pout[..]);
-        let (fx, fy, tq) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()));
         let m = U(&s.m[..]);
-        chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
+        let (x, y, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.r[..]));
+        let (inv_m, inv_i) = (U(&s.inv_m[..]), U(&s.inv_i[..]));
+        let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
+        let wcn = U(&self.wall_cn[..]);
+        let hist = Ptr(self.wall_hist.as_mut_ptr());
+        let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
+        let live = Ptr(self.wlive.as_mut_ptr());
+        let h = 0.5 * self.params.dt;
+        chunked(n, GRAIN_CHUNK, &mut self.gpartials, move |lo, hi| {
+            let t0 = Instant::now();
+            // (1) gather per grain, in increasing pair order
             for a in lo..hi {
                 let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
                 // pairs where a is i: contiguous, sequential reads
@@ -549,103 +623,106 @@ impl World {
                     tq.set(a, at);
                 }
             }
-            Partial::default()
-        });
-        let el = t_gather.elapsed().as_secs_f64();
-        self.timers.gather += el;
-        self.timers.contacts -= el;
-        total
-    }
-
-    /// Grain–wall contacts with the same law, per grain in parallel.
-    fn apply_walls<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) -> Partial {
-        let mut total = Partial::default();
-        self.release_inactive_walls::<R, IMP, L>(&mut total);
-        if self.walls.iter().all(|w| !w.active) {
-            self.roll.wcount.fill(0);
-            return total;
-        }
-        let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
-        let s = &self.state;
-        let n = s.len();
-        let walls = &self.walls;
-        let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
-        let wcn = U(&self.wall_cn[..]);
-        let hist = Ptr(self.wall_hist.as_mut_ptr());
-        let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
-        let live = Ptr(self.wlive.as_mut_ptr());
-        chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
+            let t1 = Instant::now();
+            // (2) grain–wall contacts, wall by wall
             let mut part = Partial::default();
-            for (wi, wall) in walls.iter().enumerate() {
-                if !wall.active { continue; }
-                for a in lo..hi {
-                    let hk = wi * n + a;
-                    let p = Vec2::new(x[a], y[a]);
-                    let overlap = r[a] - wall.distance(p);
-                    if overlap <= 0.0 {
-                        unsafe {
-                            if live.get(hk) == 0 { continue; }
-                            live.set(hk, 0);
-                            let h = hist.get(hk);
-                            if h != ContactState::default() {
-                                if L {
-                                    let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
-                                    part.ledger.wall_tangential += et;
-                                    part.ledger.rolling += er;
+            if any_wall {
+                for (wi, wall) in walls.iter().enumerate() {
+                    if !wall.active { continue; }
+                    for a in lo..hi {
+                        let hk = wi * n + a;
+                        let p = Vec2::new(x[a], y[a]);
+                        let overlap = r[a] - wall.distance(p);
+                        if overlap <= 0.0 {
+                            unsafe {
+                                if live.get(hk) == 0 { continue; }
+                                live.set(hk, 0);
+                                let h = hist.get(hk);
+                                if h != ContactState::default() {
+                                    if L {
+                                        let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
+                                        part.ledger.wall_tangential += et;
+                                        part.ledger.rolling += er;
+                                    }
+                                    hist.set(hk, ContactState::default());
                                 }
-                                hist.set(hk, ContactState::default());
                             }
+                            continue;
                         }
-                        continue;
-                    }
-                    let frac = overlap / (2.0 * r[a]);
-                    if frac > part.max_overlap {
-                        part.max_overlap = frac;
-                        part.max_i = a as u32;
-                    }
-                    let pin = PairIn {
-                        n: wall.normal,
-                        overlap,
-                        v_rel: Vec2::new(vx[a], vy[a]) - wall.velocity,
-                        w_i: w[a],
-                        w_j: 0.0,
-                        arm_i: r[a],
-                        arm_j: 0.0,
-                        r_roll: r[a],
-                        cn: wcn[a],
-                    };
-                    unsafe {
-                        live.set(hk, 1);
-                        let mut h = hist.get(hk);
-                        let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
-                        hist.set(hk, h);
-                        fx.set(a, fx.get(a) + o.f.x);
-                        fy.set(a, fy.get(a) + o.f.y);
-                        tq.set(a, tq.get(a) + o.t_i);
-                        if IMP && o.roll.c > 0.0 {
-                            witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
-                            part.n_roll[wi] += 1;
+                        let frac = overlap / (2.0 * r[a]);
+                        if frac > part.max_overlap {
+                            part.max_overlap = frac;
+                            part.max_i = a as u32;
                         }
-                        part.wall_force[wi] -= o.f;
-                        if L {
-                            part.ledger.wall_normal += o.work.normal;
-                            part.ledger.wall_tangential += o.work.tangential;
-                            part.ledger.rolling += o.work.rolling;
-                            part.ledger.external_work += o.f.dot(&wall.velocity) * dt;
+                        unsafe {
+                            let pin = PairIn {
+                                n: wall.normal,
+                                overlap,
+                                v_rel: Vec2::new(vx.get(a), vy.get(a)) - wall.velocity,
+                                w_i: w.get(a),
+                                w_j: 0.0,
+                                arm_i: r[a],
+                                arm_j: 0.0,
+                                r_roll: r[a],
+                                cn: wcn[a],
+                            };
+                            live.set(hk, 1);
+                            let mut h = hist.get(hk);
+                            let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
+                            hist.set(hk, h);
+                            fx.set(a, fx.get(a) + o.f.x);
+                            fy.set(a, fy.get(a) + o.f.y);
+                            tq.set(a, tq.get(a) + o.t_i);
+                            if IMP && o.roll.c > 0.0 {
+                                witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
+                                part.n_roll[wi] += 1;
+                            }
+                            part.wall_force[wi] -= o.f;
+                            if L {
+                                part.ledger.wall_normal += o.work.normal;
+                                part.ledger.wall_tangential += o.work.tangential;
+                                part.ledger.rolling += o.work.rolling;
+                                part.ledger.external_work += o.f.dot(&wall.velocity) * dt;
+                            }
                         }
                     }
                 }
             }
-            part
+            let t2 = Instant::now();
+            // (3) second half kick with the complete forces
+            let mut kpart = Partial::default();
+            if KICK {
+                for a in lo..hi {
+                    unsafe { kick_one::<L>(a, h, inv_m[a], inv_i[a], (fx.get(a), fy.get(a), tq.get(a)), (vx, vy, w), &mut kpart) };
+                }
+            }
+            let t3 = Instant::now();
+            GrainChunk { walls: part, kick: kpart, secs: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()] }
         });
-        let nc = self.partials.len();
-        for (c, p) in self.partials.iter().enumerate() {
-            total.merge(p);
-            for wi in 0..MAX_WALLS {
-                self.roll.wcount[wi * nc + c] = p.n_roll[wi];
+        let wall_s = clock.elapsed().as_secs_f64();
+        let nc = self.gpartials.len();
+        let mut kick = Partial::default();
+        let mut cpu = [0.0; 3];
+        for (c, p) in self.gpartials.iter().enumerate() {
+            if any_wall {
+                total.merge(&p.walls);
+                for wi in 0..MAX_WALLS {
+                    self.roll.wcount[wi * nc + c] = p.walls.n_roll[wi];
+                }
+            }
+            kick.merge(&p.kick);
+            for (s, x) in cpu.iter_mut().zip(p.secs) {
+                *s += x;
             }
         }
-        total
+        if !any_wall {
+            self.roll.wcount.fill(0);
+        }
+        let sum = (cpu[0] + cpu[1] + cpu[2]).max(1e-12);
+        self.timers.gather += wall_s * cpu[0] / sum;
+        self.timers.walls += wall_s * cpu[1] / sum;
+        self.timers.integrate += wall_s * cpu[2] / sum;
+        (total, kick)
     }
 
     /// A wall that was switched off (removed gate) gives up its contacts once: stored
