@@ -88,6 +88,37 @@ fn corrupt_entry_is_recomputed() {
     assert_eq!(a, std::fs::read(t.path().join("reports/quick/psd-a.csv")).unwrap());
 }
 
+/// `--force` recomputes and replaces the entry. An entry complete by its manifest but made
+/// by other code (here: a table edited and the manifest re-hashed) must not survive a
+/// forced re-run; before the fix the fresh result was dropped in favour of the old entry,
+/// so a "forced re-run, outputs compared" check compared the cache with itself.
+#[test]
+fn forced_run_replaces_a_complete_entry() {
+    let t = TempProject::new(SMALL);
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "quick", &[]).unwrap();
+    let s1 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], ..opts() }).unwrap();
+    let entry = proj.cache.entry_dir(&s1.stages[0].key);
+    let fresh = std::fs::read(entry.join("table.csv")).unwrap();
+    let edited = [fresh.as_slice(), b"0.5\n"].concat();
+    std::fs::write(entry.join("table.csv"), &edited).unwrap();
+    let mpath = entry.join("manifest.json");
+    let mut m: serde_json::Value = serde_json::from_slice(&std::fs::read(&mpath).unwrap()).unwrap();
+    m["files"]["table.csv"] = blake3::hash(&edited).to_hex().to_string().into();
+    std::fs::write(&mpath, serde_json::to_vec_pretty(&m).unwrap()).unwrap();
+    assert!(proj.cache.verify(&entry, &s1.stages[0].key).is_ok(), "the edited entry is complete");
+    // Unforced: the complete entry is reused as it is.
+    let s2 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], ..opts() }).unwrap();
+    assert_eq!(s2.cached(), ["psd-a"]);
+    assert_eq!(std::fs::read(entry.join("table.csv")).unwrap(), edited);
+    // Forced: recomputed and put in place of the old entry.
+    let s3 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], force: true, ..opts() }).unwrap();
+    assert_eq!(s3.ran(), ["psd-a"]);
+    assert_eq!(std::fs::read(entry.join("table.csv")).unwrap(), fresh);
+    assert_eq!(std::fs::read(t.path().join("reports/quick/psd-a.csv")).unwrap(), fresh);
+    assert!(proj.cache.verify(&entry, &s1.stages[0].key).is_ok());
+}
+
 #[test]
 fn killed_run_leaves_nothing_taken_as_valid() {
     let t = TempProject::new(SMALL);

@@ -218,7 +218,12 @@ impl Cache {
     /// and moved into place under the key's lock; if a complete entry is already there
     /// (a concurrent run, or a forced re-run of the same work) it is kept and this copy
     /// is discarded — a complete entry is never removed or replaced by a writer.
-    pub fn store(&self, key: &str, stage: &str, profile: &str, out: &mut Output, record: &Value) -> anyhow::Result<PathBuf> {
+    ///
+    /// `replace` (a forced re-run): a complete entry already under `key` is replaced by this
+    /// one rather than kept, and the names of its files whose bytes differ are returned —
+    /// with deterministic stages an empty list, so a forced re-run doubles as a
+    /// reproducibility check. Without `replace` the list is empty.
+    pub fn store(&self, key: &str, stage: &str, profile: &str, out: &mut Output, record: &Value, replace: bool) -> anyhow::Result<(PathBuf, Vec<String>)> {
         fsio::create_dir_all(&self.root)?;
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".tmp-{key}-"))
@@ -252,8 +257,19 @@ impl Cache {
         let rec_bytes = serde_json::to_vec_pretty(record)?;
         fsio::write_new(&tmp.path().join("record.json"), &rec_bytes)?;
         let manifest = Manifest { key: key.to_string(), files, record: Some(blake3::hash(&rec_bytes).to_hex().to_string()) };
+        let changed = match replace.then(|| read_manifest(&self.entry_dir(key))) {
+            Some(Ok(old)) => {
+                let names: std::collections::BTreeSet<&String> = old.files.keys().chain(manifest.files.keys()).collect();
+                names.into_iter().filter(|n| old.files.get(*n) != manifest.files.get(*n)).cloned().collect()
+            }
+            _ => Vec::new(),
+        };
         fsio::write_new(&tmp.path().join("manifest.json"), &serde_json::to_vec_pretty(&manifest)?)?;
-        Ok(self.commit(key, tmp.keep())?)
+        if replace && self.entry_dir(key).exists() {
+            let _lock = fsio::lock(&self.lock_path(key))?;
+            fsio::discard_dir(&self.entry_dir(key))?;
+        }
+        Ok((self.commit(key, tmp.keep())?, changed))
     }
 
     /// Remove the entries of `profile` (every entry, temp directory and lock when

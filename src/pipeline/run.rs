@@ -364,7 +364,7 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
     let mut done: HashMap<String, bool> = HashMap::new(); // id -> ok
     // running stage -> threads of its pool
     let mut running: HashMap<String, usize> = HashMap::new();
-    let (tx, rx) = mpsc::channel::<(String, Result<f64, String>)>();
+    let (tx, rx) = mpsc::channel::<(String, Result<(f64, Vec<String>), String>)>();
     std::thread::scope(|scope| {
         loop {
             let mut progressed = false;
@@ -427,9 +427,10 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                 pb.set_prefix(id.clone());
                 let keys = &keys;
                 let stage = st.clone();
+                let replace = forced.contains(id);
                 scope.spawn(move || {
                     let r = match rayon::ThreadPoolBuilder::new().num_threads(threads).thread_name(|i| format!("stage-worker-{i}")).build() {
-                        Ok(pool) => pool.install(|| run_one(p, proj, &stage, keys, pb.clone())),
+                        Ok(pool) => pool.install(|| run_one(p, proj, &stage, keys, pb.clone(), replace)),
                         Err(e) => Err(format!("cannot start a thread pool of {threads} thread(s): {e}")),
                     };
                     pb.finish_and_clear();
@@ -444,9 +445,15 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                 running.remove(&id);
                 let key = keys[&id].1.clone();
                 match r {
-                    Ok(wall_s) => {
+                    Ok((wall_s, changed)) => {
                         if !opts.quiet {
                             say(&mp, format!("  ran     {id}  ({wall_s:.2} s)"));
+                        }
+                        if !changed.is_empty() {
+                            // Deterministic stages reproduce their entry byte for byte; a
+                            // difference is a code change without a version bump, or a
+                            // stage whose outputs hold measured times (work-precision).
+                            say(&mp, format!("  note    {id}: the forced re-run replaced its cache entry; files that differ from the old one: {}", changed.join(", ")));
                         }
                         done.insert(id.clone(), true);
                         summary.stages.push(StageReport { id, key, outcome: Outcome::Ran { wall_s } });
@@ -512,7 +519,9 @@ fn write_state(proj: &Project, profile: &str, id: &str, rec: &KeyRecord) {
     }
 }
 
-fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (KeyRecord, String)>, pb: ProgressBar) -> Result<f64, String> {
+/// Run one stage and store its entry; the wall time and, for a forced re-run (`replace`),
+/// the files whose bytes differ from the entry it replaced.
+fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (KeyRecord, String)>, pb: ProgressBar, replace: bool) -> Result<(f64, Vec<String>), String> {
     let (rec, key) = &keys[&st.id];
     // Clear the old state first so an interrupted run can never look fresh.
     let _ = std::fs::remove_file(proj.state_file(&p.profile, &st.id));
@@ -558,7 +567,7 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
         "wall_s": wall_s, "threads": ctx.threads, "started_unix_s": started,
         "granrepro_version": env!("CARGO_PKG_VERSION"), "caption": st.caption, "notes": out.notes,
     });
-    proj.cache.store(key, &st.id, &p.profile, &mut out, &record).map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
+    let (_, changed) = proj.cache.store(key, &st.id, &p.profile, &mut out, &record, replace).map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
     write_state(proj, &p.profile, &st.id, rec);
-    Ok(wall_s)
+    Ok((wall_s, changed))
 }
