@@ -105,6 +105,7 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "cd-work-precision" => vec![],
         "pile-run" => vec![("pile", One), ("shear", OptionalOne)],
         "pile-runout" => vec![("runs", Many)],
+        "pile-compare" => crate::stages::pile_compare::roles(params),
         "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],

@@ -20,6 +20,7 @@ pub mod fit_stage;
 pub mod laws;
 pub mod mpm_stages;
 pub mod pile_stages;
+pub mod pile_compare;
 pub mod plot;
 pub mod psd;
 pub mod snapshot;
@@ -128,6 +129,7 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         pile_stages::PREP_KIND,
         pile_stages::RUN_KIND,
         pile_stages::RUNOUT_KIND,
+        pile_compare::KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
         cd_stages::SHEAR_KIND,
