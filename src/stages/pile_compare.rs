@@ -45,6 +45,9 @@ pub struct CompareParams {
     pub weak_tolerance: f64,
     /// Largest relative spread (max − min)/mean of ΔL over the restitution values.
     pub spread_tolerance: f64,
+    /// Energies within this relative distance of each other form one ensemble (perturbed
+    /// starts of a chaotic run): the spread is of the ensemble means (`restitution`; 0: none).
+    pub ensemble_rel: f64,
     /// Instant [√(d/g)] (`cavity`).
     pub at: f64,
     /// Input energy [mgd] and instants [√(d/g)] of the `front` comparison.
@@ -57,7 +60,7 @@ pub struct CompareParams {
 
 impl Default for CompareParams {
     fn default() -> Self {
-        CompareParams { what: What::Profiles, split_mgd: 40.0, longer_ratio: 1.2, weak_tolerance: 0.2, spread_tolerance: 0.02, at: 20.0, e0_mgd: 61.0, times: vec![], front_tolerance: 0.05 }
+        CompareParams { what: What::Profiles, split_mgd: 40.0, longer_ratio: 1.2, weak_tolerance: 0.2, spread_tolerance: 0.02, ensemble_rel: 0.0, at: 20.0, e0_mgd: 61.0, times: vec![], front_tolerance: 0.05 }
     }
 }
 
@@ -68,6 +71,7 @@ impl Validate for CompareParams {
         c.check(self.longer_ratio.is_finite() && self.longer_ratio >= 1.0, "longer_ratio", self.longer_ratio, ">= 1");
         c.check(self.weak_tolerance.is_finite() && self.weak_tolerance > 0.0, "weak_tolerance", self.weak_tolerance, "> 0");
         c.check(self.spread_tolerance.is_finite() && self.spread_tolerance > 0.0, "spread_tolerance", self.spread_tolerance, "> 0");
+        c.check(self.ensemble_rel.is_finite() && (0.0..0.2).contains(&self.ensemble_rel), "ensemble_rel", self.ensemble_rel, "in [0, 0.2): relative width of a perturbed-energy ensemble");
         c.check(self.front_tolerance.is_finite() && self.front_tolerance > 0.0, "front_tolerance", self.front_tolerance, "> 0");
         c.check(self.at.is_finite() && self.at >= 0.0, "at", self.at, "an instant >= 0 [√(d/g)]");
         if self.what == What::Front {
@@ -182,32 +186,63 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         runs.push((eps, run_of(inp)?));
     }
     anyhow::ensure!(runs.len() >= 2, "a restitution comparison needs at least two runs, got {}", runs.len());
-    // The energies every run has (a baseline run may sweep more).
-    let energies: Vec<f64> = runs[0].1.e.iter().cloned().filter(|e| runs.iter().all(|(_, r)| r.e.iter().any(|x| (x - e).abs() <= 1e-9 * e.abs()))).collect();
-    anyhow::ensure!(!energies.is_empty(), "the restitution runs share no input energy");
-    let (mut ce, mut cs, mut cm) = (Vec::new(), Vec::new(), Vec::new());
+    // Ensembles: the first run's energies, sorted, chained while neighbours are within
+    // ensemble_rel; a run's members of a group are its energies inside the group's range.
+    let tol = p.ensemble_rel.max(1e-9);
+    let mut sorted = runs[0].1.e.clone();
+    sorted.sort_by(|a, b| a.total_cmp(b));
+    let mut groups: Vec<(f64, f64)> = Vec::new();
+    for e in sorted {
+        match groups.last_mut() {
+            Some(g) if e / g.1 - 1.0 <= tol => g.1 = e,
+            _ => groups.push((e, e)),
+        }
+    }
+    let (mut ce, mut cs, mut cm, mut cw, mut cn) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut series = Vec::new();
     for (k, (eps, r)) in runs.iter().enumerate() {
         series.push(Series::new(format!("CD ε_n = ε_t = {eps}"), Style::Points, r.e.iter().cloned().zip(r.dl.iter().cloned()).collect(), k));
     }
-    for e in &energies {
-        let vals: Vec<f64> = runs.iter().filter_map(|(_, r)| r.e.iter().position(|x| (x - e).abs() <= 1e-9 * e.abs()).map(|j| r.dl[j])).collect();
-        let mean = vals.iter().sum::<f64>() / vals.len() as f64;
-        let spread = (vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - vals.iter().cloned().fold(f64::INFINITY, f64::min)) / mean;
-        ce.push(*e);
-        cs.push(spread);
+    for (lo, hi) in &groups {
+        let inside = |e: f64| e >= lo * (1.0 - 1e-9) && e <= hi * (1.0 + 1e-9);
+        let mut means = Vec::new();
+        let mut within: f64 = 0.0;
+        let mut members = usize::MAX;
+        for (_, r) in &runs {
+            let v: Vec<f64> = r.e.iter().zip(&r.dl).filter(|(e, _)| inside(**e)).map(|(_, d)| *d).collect();
+            if v.is_empty() {
+                break;
+            }
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            within = within.max((v.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - v.iter().cloned().fold(f64::INFINITY, f64::min)) / m);
+            members = members.min(v.len());
+            means.push(m);
+        }
+        if means.len() < runs.len() {
+            continue;
+        }
+        let mean = means.iter().sum::<f64>() / means.len() as f64;
+        ce.push((lo * hi).sqrt());
+        cs.push((means.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - means.iter().cloned().fold(f64::INFINITY, f64::min)) / mean);
         cm.push(mean);
+        cw.push(within);
+        cn.push(members as f64);
     }
+    anyhow::ensure!(!ce.is_empty(), "the restitution runs share no input energy (within ensemble_rel = {})", p.ensemble_rel);
+    for (e, w) in ce.iter().zip(&cw) {
+        out.scalar(&format!("scatter_at_{e:.2}"), *w);
+    }
+    out.scalar("scatter_max", cw.iter().cloned().fold(0.0, f64::max));
     let worst = cs.iter().cloned().fold(0.0, f64::max);
     for (e, s) in ce.iter().zip(&cs) {
-        out.scalar(&format!("spread_at_{e}"), *s);
+        out.scalar(&format!("spread_at_{e:.2}"), *s);
     }
     out.scalar("spread_max", worst);
-    out.table("table", frame(vec![("e0_mgd", ce.clone()), ("dl_mean", cm), ("dl_spread", cs)])?);
+    out.table("table", frame(vec![("e0_mgd", ce.clone()), ("dl_mean", cm), ("dl_spread", cs.clone()), ("dl_scatter_within_eps", cw.clone()), ("members", cn)])?);
     let eps: Vec<String> = runs.iter().map(|r| format!("{}", r.0)).collect();
     out.claims.push(Claim::at_most(
         "restitution-no-difference",
-        &format!("\"CD simulations using different values of coefficient of restitution show no difference in the run-out behaviour\": largest relative spread (max − min)/mean of ΔL over ε ∈ {{{}}} at E_0 ∈ {:?} mgd (bound {})", eps.join(", "), ce, p.spread_tolerance),
+        &format!("\"CD simulations using different values of coefficient of restitution show no difference in the run-out behaviour\": largest relative spread (max − min)/mean of ΔL over ε ∈ {{{}}} at E_0 ∈ {:?} mgd (means over the energies within ±{} of each; the scatter within one ε, the runs' chaos, is up to {:.1} %; bound {})", eps.join(", "), ce, p.ensemble_rel, 100.0 * cw.iter().cloned().fold(0.0, f64::max), p.spread_tolerance),
         p.spread_tolerance,
         worst,
     ));
@@ -301,7 +336,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `pile-compare`.
 pub const KIND: Kind = Kind {
     name: "pile-compare",
-    version: 1,
+    version: 3,
     about: "pile comparisons of §4.4: gradient vs uniform (fig4-44), CD restitution sweep, cavity uniform vs gradient (fig4-42), MPM vs DEM front (fig4-43)",
     params: typed::<CompareParams>,
     run,
