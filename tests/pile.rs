@@ -106,3 +106,87 @@ fn a_settled_pile_does_not_run_out_without_excitation() {
     let lf = r.samples.last().unwrap().l;
     assert!((lf - r.l0).abs() < 0.05 * 2.455e-3, "front moved {} m", lf - r.l0);
 }
+
+// ---- part B: snapshots, uniform excitation, comparisons --------------------------------
+
+#[test]
+fn snapshot_requests_the_run_cannot_honour_are_refused() {
+    // the photographed run must be one of the swept energies
+    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 61.0, times: [0.0] }", "dem: { density: 2600.0 }", &["snapshots.e0_mgd", "61", "one of energies_mgd"]);
+    // frames are taken at sample instants: 0.3 is not a multiple of sample_every 0.25
+    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [0.0, 0.3] }", "dem: { density: 2600.0 }", &["snapshots.times[1]", "0.3", "multiples of stop.sample_every"]);
+    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [5.0, 2.5] }", "dem: { density: 2600.0 }", &["snapshots.times[1]", "ascending"]);
+    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [] }", "dem: { density: 2600.0 }", &["snapshots.times", "non-empty"]);
+    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [0.0], every: 2 }", "dem: { density: 2600.0 }", &["snapshots.every"]);
+}
+
+#[test]
+fn an_unknown_comparison_is_refused_with_the_allowed_ones() {
+    let y = "version: 1\nstages:\n  - id: c\n    kind: pile-compare\n    params: { what: sideways }\n    inputs: { runs: [] }\n";
+    let t = TempProject::new(y);
+    let (code, _, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 2, "{err}");
+    for n in ["what", "sideways", "profiles", "restitution", "cavity", "front"] {
+        assert!(err.contains(n), "missing `{n}` in: {err}");
+    }
+}
+
+/// A small settled pile for the frame tests.
+fn small_pile() -> (granrepro::dem::State, DemParams) {
+    let radii: Vec<f64> = granrepro::dem::prep::diameters_uniform_by_area(40, 1.964e-3, 2.946e-3, 3).iter().map(|d| 0.5 * d).collect();
+    let mut p = DemParams::default();
+    p.density = 2600.0;
+    p.grain.kn = 1e6;
+    p.grain.kt = 1e6;
+    p.wall.kn = 1e6;
+    p.wall.kt = 1e6;
+    p.grain.friction = 0.4;
+    p.wall.friction = 0.4;
+    p.rolling.kr = 1.5;
+    p.rolling.cr = 7.5e-4;
+    p.rolling.mu_r = 0.15;
+    p.dt = 9.5e-6;
+    p.ledger = false;
+    let mut pp = granrepro::dem::pile::PileParams::default();
+    pp.deposition.width = 0.012;
+    pp.deposition.drop_height = 1.0;
+    pp.deposition.rows_per_layer = 1000;
+    pp.deposition.softening = 1.0;
+    pp.deposition.settle_ratio = 1e-4;
+    pp.max_time = 2.0;
+    let pile = granrepro::dem::pile::prepare_pile(&radii, &p, &pp).unwrap();
+    (pile.state, p)
+}
+
+#[test]
+fn frames_do_not_change_the_run_and_carry_the_input_energy() {
+    use granrepro::analysis::pile::FrameTimes;
+    let (s, p) = small_pile();
+    let stop = StopRule { t_min: 10.0, t_max: 12.0, ..Default::default() };
+    let g = p.gravity;
+    let tu = (2.455e-3 / g).sqrt();
+    let e0 = 1e-3;
+    for profile in [Profile::Gradient, Profile::Uniform] {
+        let plain = granrepro::dem::pile::run_pile(&s, &p, profile, e0, &stop).unwrap();
+        let ft = FrameTimes { times: vec![0.0, 2.5 * tu, 5.0 * tu], end_after_last: false };
+        let shot = granrepro::dem::pile::run_pile_frames(&s, &p, profile, e0, &stop, &ft).unwrap();
+        // leave-out: frames are read at sample instants, the trajectory is the same
+        assert_eq!(plain.samples, shot.samples, "{profile:?}: frames changed the run");
+        assert!(plain.frames.is_empty());
+        assert_eq!(shot.frames.len(), 3);
+        // the t = 0 frame is the excited pile: Σ½m v_x² = E_0, v_y = 0; uniform: one V_0
+        let f0 = &shot.frames[0];
+        let m: Vec<f64> = s.m.clone();
+        assert!((kinetic(&m, &f0.vx) / e0 - 1.0).abs() < 1e-12);
+        assert!(f0.vy.iter().all(|v| *v == 0.0));
+        if profile == Profile::Uniform {
+            let v0 = (2.0 * e0 / m.iter().sum::<f64>()).sqrt();
+            assert!(f0.vx.iter().all(|v| (v - v0).abs() < 1e-12 * v0));
+        }
+        assert!((shot.frames[1].t / tu - 2.5).abs() < 0.05 && (shot.frames[2].t / tu - 5.0).abs() < 0.05);
+        // a frames-only run ends at its last frame
+        let short = granrepro::dem::pile::run_pile_frames(&s, &p, profile, e0, &stop, &FrameTimes { end_after_last: true, ..ft.clone() }).unwrap();
+        assert!(short.samples.last().unwrap().t < 5.5 * tu && !short.stopped);
+        assert_eq!(short.samples[..], plain.samples[..short.samples.len()]);
+    }
+}

@@ -326,3 +326,150 @@ pub fn grain_sample(t: f64, st: &crate::dem::state::State, link: crate::analysis
     let erot: f64 = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
     Sample { t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
 }
+
+// ---------------------------------------------------------------------------------------
+// Snapshots of a pile run (figs 4.24, 4.31, 4.32, 4.42, 4.43): taken only when a stage asks.
+
+/// The bodies of a pile run at one instant (DEM/CD grains or MPM points), SI.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Frame {
+    /// Time since the excitation [s].
+    pub t: f64,
+    /// Centres x [m].
+    pub x: Vec<f64>,
+    /// Centres y [m].
+    pub y: Vec<f64>,
+    /// Radius (grains) or domain half-width (points) [m].
+    pub half: Vec<f64>,
+    /// Velocity x [m/s].
+    pub vx: Vec<f64>,
+    /// Velocity y [m/s].
+    pub vy: Vec<f64>,
+    /// Vertical stress σ_yy [Pa] (MPM points; empty for grains).
+    pub sigma_yy: Vec<f64>,
+}
+
+/// When to take frames: times [s], ascending. `due(k, t)` tells whether frame `k` is due
+/// at the sample instant `t` (snapshot times are multiples of the sampling interval, so
+/// frames are taken at sample instants and the trajectory is the one without frames).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FrameTimes {
+    /// Instants [s].
+    pub times: Vec<f64>,
+    /// End the run once every frame is taken (a frames-only run: its summary is partial).
+    pub end_after_last: bool,
+}
+
+impl FrameTimes {
+    /// Next frame index still to take, if due at `t` (half a sampling interval `dts` of slack).
+    pub fn due(&self, taken: usize, t: f64, dts: f64) -> bool { self.times.get(taken).is_some_and(|&tk| t >= tk - 0.5 * dts) }
+    /// Whether every frame has been taken.
+    pub fn all_taken(&self, taken: usize) -> bool { taken >= self.times.len() }
+    /// Whether a frames-only run may end now.
+    pub fn ends(&self, taken: usize) -> bool { self.end_after_last && !self.times.is_empty() && self.all_taken(taken) }
+}
+
+/// Cavity behind the mass next to the left wall (figs 4.31, 4.42; figures.md "empty cells of
+/// the pile envelope adjacent to x = 0"), as an area [m²]: with the free-surface profile
+/// top(x) (highest body edge per bin of width `bin`, 0 for empty bins) over x ∈ [0, l], the
+/// envelope E(x) = max_{x' ≥ x} top(x') is the surface seen from the right; the cavity is
+/// Σ (E − top)·bin over the bins left of the highest point. A pile falling away from the
+/// wall (monotone surface) has none; a mass pushed away from the wall leaves one.
+/// Only bodies touching another body or the base count (a grain in flight, ahead of or
+/// above the mass, would otherwise raise the envelope over empty air); `extra` [m] widens
+/// "touching" (MPM: points sharing grid nodes are one continuum).
+pub fn cavity_area(x: &[f64], y: &[f64], half: &[f64], l: f64, bin: f64, extra: f64) -> f64 {
+    let keep = touching(x, y, half, extra);
+    let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, k)| **k).map(|(a, _)| *a).collect() };
+    let prof = surface_profile(&pick(x), &pick(y), &pick(half), l, bin);
+    let top: Vec<f64> = prof.iter().map(|p| if p.1.is_finite() { p.1 } else { 0.0 }).collect();
+    let Some(peak) = (0..top.len()).max_by(|&a, &b| top[a].total_cmp(&top[b]).then(b.cmp(&a))) else { return 0.0 };
+    let mut env = 0.0f64;
+    let mut area = 0.0;
+    for b in (0..peak).rev() {
+        env = env.max(top[b + 1]);
+        area += (env - top[b]).max(0.0) * bin;
+    }
+    area
+}
+
+/// Whether each body touches the base (y − half within 5 % of half) or another body (centre
+/// distance within 1.1 × the sum of the halves + `extra`: contacts of soft and rigid
+/// grains, and the adjoining domains of material points).
+pub fn touching(x: &[f64], y: &[f64], half: &[f64], extra: f64) -> Vec<bool> {
+    let n = x.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| x[a].total_cmp(&x[b]).then(a.cmp(&b)));
+    let hmax = half.iter().cloned().fold(0.0, f64::max);
+    let mut out: Vec<bool> = (0..n).map(|i| y[i] - half[i] <= 0.05 * half[i]).collect();
+    for (k, &i) in order.iter().enumerate() {
+        if out[i] {
+            continue;
+        }
+        let reach = 1.1 * (half[i] + hmax) + extra;
+        let near = |j: usize| j != i && (x[j] - x[i]).hypot(y[j] - y[i]) <= 1.1 * (half[i] + half[j]) + extra;
+        let fwd = order[k + 1..].iter().take_while(|&&j| x[j] - x[i] <= reach).any(|&j| near(j));
+        let back = order[..k].iter().rev().take_while(|&&j| x[i] - x[j] <= reach).any(|&j| near(j));
+        out[i] = fwd || back;
+    }
+    out
+}
+
+/// Smallest gap between a body and the left wall x = 0, min(x − half) [m] (figs 4.31:
+/// "the granular heap remains in contact with the left wall irrespective of the input energy").
+pub fn wall_gap(x: &[f64], half: &[f64]) -> f64 { x.iter().zip(half).map(|(x, h)| x - h).fold(f64::INFINITY, f64::min) }
+
+#[cfg(test)]
+mod frame_tests {
+    use super::*;
+
+    #[test]
+    fn cavity_of_a_monotone_pile_is_zero_and_of_a_dent_its_area() {
+        // right-triangle pile against the wall: no cavity
+        let mut x = Vec::new();
+        let mut y = Vec::new();
+        for i in 0..50 {
+            for j in 0..(50 - i) {
+                x.push(0.5 + i as f64);
+                y.push(0.5 + j as f64 * 0.5);
+            }
+        }
+        let h = vec![0.5; x.len()];
+        assert_eq!(cavity_area(&x, &y, &h, 50.0, 1.0, 0.0), 0.0);
+        // keep only the two bottom bodies (y = 0.5, 1.0: top 1.5) of the first 10 columns:
+        // a dent 10 bins wide up to column 10's top 25.5 − 0.5·10 = 20.5
+        let keep: Vec<usize> = (0..x.len()).filter(|&k| x[k] > 10.0 || y[k] <= 1.0).collect();
+        let (x2, y2, h2): (Vec<f64>, Vec<f64>, Vec<f64>) = (keep.iter().map(|&k| x[k]).collect(), keep.iter().map(|&k| y[k]).collect(), keep.iter().map(|&k| h[k]).collect());
+        let a = cavity_area(&x2, &y2, &h2, 50.0, 1.0, 0.0);
+        assert!((a - 10.0 * (20.5 - 1.5)).abs() < 1e-9, "cavity {a}");
+        assert!((wall_gap(&x2, &h2) - 0.0).abs() < 1e-12);
+        // a grain in flight far above the wall corner does not make a cavity
+        let (mut x3, mut y3, mut h3) = (x.clone(), y.clone(), h.clone());
+        x3.push(30.5);
+        y3.push(80.0);
+        h3.push(0.5);
+        assert_eq!(cavity_area(&x3, &y3, &h3, 50.0, 1.0, 0.0), 0.0);
+        assert_eq!(touching(&x3, &y3, &h3, 0.0).iter().filter(|t| !**t).count(), 1);
+    }
+
+    #[test]
+    fn frames_are_due_at_their_sample_instants_only() {
+        let ft = FrameTimes { times: vec![0.0, 2.5], end_after_last: true };
+        assert!(ft.due(0, 0.0, 0.25));
+        assert!(!ft.due(1, 2.25, 0.25));
+        assert!(ft.due(1, 2.5, 0.25));
+        assert!(ft.all_taken(2) && !ft.all_taken(1) && ft.ends(2) && !ft.ends(1));
+        assert!(!FrameTimes::default().ends(0));
+    }
+
+    #[test]
+    fn uniform_excitation_gives_every_body_the_same_v0() {
+        let y = [0.1, 0.5, 0.9];
+        let m = [1.0, 2.0, 3.0];
+        let v = excitation(Profile::Uniform, &y, &m, 1.0, 3.0);
+        // V_0 = √(2E_0/M) = √(6/6) = 1
+        for vv in &v {
+            assert!((vv - 1.0).abs() < 1e-15);
+        }
+    }
+}

@@ -210,6 +210,20 @@ pub fn run_excited_pile(
     e0: Real,
     stop: &crate::analysis::pile::StopRule,
 ) -> Result<crate::dem::pile::PileRun, CdError> {
+    run_excited_pile_frames(pile, params, profile, e0, stop, &Default::default())
+}
+
+/// [`run_excited_pile`] taking frames at `frames` (times [s], at sample instants); the run
+/// does not stop before the last frame.
+pub fn run_excited_pile_frames(
+    pile: &State,
+    params: &CdParams,
+    profile: crate::analysis::pile::Profile,
+    e0: Real,
+    stop: &crate::analysis::pile::StopRule,
+    frames: &crate::analysis::pile::FrameTimes,
+) -> Result<crate::dem::pile::PileRun, CdError> {
+    use crate::dem::pile::grain_frame;
     use crate::analysis::front::Link;
     use crate::analysis::pile::{Sample, excitation, grain_sample, kinetic};
     let mut s = pile.clone();
@@ -227,6 +241,10 @@ pub fn run_excited_pile(
     let mut samples = vec![rec(&w)];
     let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
+    let mut shots = Vec::new();
+    if frames.due(0, w.t, dts) {
+        shots.push(grain_frame(w.t, &w.state));
+    }
     let mut stopped = false;
     let mut next = dts;
     loop {
@@ -237,14 +255,17 @@ pub fn run_excited_pile(
         }
         next += dts;
         samples.push(rec(&w));
-        if stop.done(&samples, e0, g) {
+        if frames.due(shots.len(), w.t, dts) {
+            shots.push(grain_frame(w.t, &w.state));
+        }
+        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
             stopped = true;
             break;
         }
-        if stop.expired(w.t, g) {
+        if frames.ends(shots.len()) || stop.expired(w.t, g) {
             break;
         }
     }
     let st = &w.state;
-    Ok(crate::dem::pile::PileRun { samples, l0, e0, e0_check, stopped, steps: w.step_count, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()) })
+    Ok(crate::dem::pile::PileRun { samples, l0, e0, e0_check, stopped, steps: w.step_count, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()), frames: shots })
 }

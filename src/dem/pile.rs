@@ -5,7 +5,7 @@
 //! fastest grain slower than `settle_speed` √(g d̄), checked every 1 ms of simulated time).
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Profile, Sample, StopRule, excitation, grain_sample, kinetic};
+use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, StopRule, excitation, grain_sample, kinetic};
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
 use crate::dem::prep::{DepositionParams, ballistic_deposition, box_walls, quench};
@@ -107,6 +107,13 @@ pub struct PileRun {
     pub steps: u64,
     /// Final body positions and half-sizes (x, y, half) for snapshots.
     pub final_bodies: (Vec<Real>, Vec<Real>, Vec<Real>),
+    /// Frames at the requested instants (empty unless asked for).
+    pub frames: Vec<Frame>,
+}
+
+/// A frame of grains (DEM or CD: both on `dem::State`).
+pub fn grain_frame(t: Real, s: &State) -> Frame {
+    Frame { t, x: s.x.clone(), y: s.y.clone(), half: s.r.clone(), vx: s.vx.clone(), vy: s.vy.clone(), sigma_yy: Vec::new() }
 }
 
 /// Walls of a pile run: the base and the left wall only (the right wall is gone).
@@ -114,6 +121,12 @@ pub fn pile_walls() -> Vec<Wall> { vec![Wall::floor(0.0), Wall::left(0.0)] }
 
 /// Excite a pile at rest with `profile` carrying `e0` [J/m] and run it until `stop`.
 pub fn run_pile(pile: &State, params: &DemParams, profile: Profile, e0: Real, stop: &StopRule) -> Result<PileRun, DemError> {
+    run_pile_frames(pile, params, profile, e0, stop, &FrameTimes::default())
+}
+
+/// [`run_pile`] taking frames at `frames` (times [s], at sample instants); the run does not
+/// stop before the last frame.
+pub fn run_pile_frames(pile: &State, params: &DemParams, profile: Profile, e0: Real, stop: &StopRule, frames: &FrameTimes) -> Result<PileRun, DemError> {
     let mut s = pile.clone();
     s.stop();
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
@@ -130,20 +143,27 @@ pub fn run_pile(pile: &State, params: &DemParams, profile: Profile, e0: Real, st
     let mut samples = vec![rec(&w)];
     let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
+    let mut shots = Vec::new();
+    if frames.due(0, w.t, dts) {
+        shots.push(grain_frame(w.t, &w.state));
+    }
     let mut stopped = false;
     loop {
         w.run_until(w.t + dts)?;
         samples.push(rec(&w));
-        if stop.done(&samples, e0, g) {
+        if frames.due(shots.len(), w.t, dts) {
+            shots.push(grain_frame(w.t, &w.state));
+        }
+        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
             stopped = true;
             break;
         }
-        if stop.expired(w.t, g) {
+        if frames.ends(shots.len()) || stop.expired(w.t, g) {
             break;
         }
     }
     let st = &w.state;
-    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: w.steps, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()) })
+    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: w.steps, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()), frames: shots })
 }
 
 /// Settle the grains of a prepared pile again with other walls or parameters (kinetic

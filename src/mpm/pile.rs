@@ -8,7 +8,7 @@
 //! stress field is kept, velocities and plastic history reset.
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Profile, Sample, StopRule, excitation, kinetic, surface_at};
+use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, StopRule, excitation, kinetic, surface_at};
 use crate::dem::pile::PileRun;
 use crate::math::{Real, Vec2};
 use crate::mpm::boundary::column_walls;
@@ -100,6 +100,26 @@ pub fn load_pile(params: &MpmParams, spec: &MpmPileSpec, profile: &[(Real, Real)
 /// `link`: largest centre distance [m] at which two points belong to the same mass (D01's
 /// MPM rule is 1.5 × the initial spacing; the stage passes 2 cells, the GIMP stencil).
 pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, stop: &StopRule, link: Real) -> Result<PileRun, MpmError> {
+    run_pile_frames(pile, params, profile, e0, stop, link, &FrameTimes::default())
+}
+
+/// A frame of material points (σ_yy included: fig4-24b).
+pub fn point_frame(st: &State, lp: Real) -> Frame {
+    let p = &st.points;
+    Frame {
+        t: st.t,
+        x: p.iter().map(|q| q.x.x).collect(),
+        y: p.iter().map(|q| q.x.y).collect(),
+        half: vec![lp; p.len()],
+        vx: p.iter().map(|q| q.v.x).collect(),
+        vy: p.iter().map(|q| q.v.y).collect(),
+        sigma_yy: p.iter().map(|q| q.stress.yy).collect(),
+    }
+}
+
+/// [`run_pile`] taking frames at `frames` (times [s], at sample instants); the run does not
+/// stop before the last frame.
+pub fn run_pile_frames(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, stop: &StopRule, link: Real, frames: &FrameTimes) -> Result<PileRun, MpmError> {
     let mut state = pile.state.clone();
     let lp = params.half_width();
     let y: Vec<Real> = state.points.iter().map(|p| p.x.y).collect();
@@ -122,6 +142,10 @@ pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, 
     let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
     let mut next = dts;
+    let mut shots = Vec::new();
+    if frames.due(0, state.t, dts) {
+        shots.push(point_frame(&state, lp));
+    }
     let mut stopped = false;
     loop {
         while state.t < next - 1e-12 {
@@ -130,15 +154,18 @@ pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, 
         }
         next += dts;
         samples.push(rec(&state));
-        if stop.done(&samples, e0, g) {
+        if frames.due(shots.len(), state.t, dts) {
+            shots.push(point_frame(&state, lp));
+        }
+        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
             stopped = true;
             break;
         }
-        if stop.expired(state.t, g) {
+        if frames.ends(shots.len()) || stop.expired(state.t, g) {
             break;
         }
     }
     let xs = state.points.iter().map(|p| p.x.x).collect();
     let ys = state.points.iter().map(|p| p.x.y).collect();
-    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: state.step, final_bodies: (xs, ys, vec![lp; state.points.len()]) })
+    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: state.step, final_bodies: (xs, ys, vec![lp; state.points.len()]), frames: shots })
 }

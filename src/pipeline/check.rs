@@ -108,6 +108,7 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "pile-series" => vec![("runs", Many)],
         "pile-packing" => vec![("pile", One)],
         "energy-runout" => vec![("col_dem", Many), ("col_mpm", Many), ("pile_dem", One), ("pile_mpm", One)],
+        "pile-compare" => crate::stages::pile_compare::roles(params),
         "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],

@@ -23,6 +23,7 @@ pub mod pile_stages;
 pub mod pile_series;
 pub mod energy_runout;
 pub mod pile_packing;
+pub mod pile_compare;
 pub mod plot;
 pub mod psd;
 pub mod snapshot;
@@ -134,6 +135,7 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         pile_series::KIND,
         energy_runout::KIND,
         pile_packing::KIND,
+        pile_compare::KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
         cd_stages::SHEAR_KIND,

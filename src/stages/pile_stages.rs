@@ -11,7 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
-use crate::analysis::pile::{D_NORM, M_NORM, Profile, StopRule, Summary, envelope_packing, slope_deg, summarise, surface_profile};
+use crate::analysis::pile::{D_NORM, Frame, FrameTimes, M_NORM, Profile, StopRule, Summary, cavity_area, envelope_packing, slope_deg, summarise, surface_at, surface_profile, wall_gap};
 use crate::cd::CdParams;
 use crate::dem::pile::{PileParams, PileRun, prepare_pile};
 use crate::dem::{DemParams, SizeClasses, State};
@@ -277,6 +277,23 @@ pub struct RunParams {
     pub mpm_link_cells: f64,
     /// Stopping rule.
     pub stop: StopRule,
+    /// Snapshots of one run (figs 4.24, 4.31, 4.32, 4.42, 4.43), taken only when asked.
+    pub snapshots: Option<SnapSpec>,
+}
+
+/// Which run to photograph and when (leave-out: no frames are taken without this).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SnapSpec {
+    /// The run's input energy [mgd per grain]: one of `energies_mgd`.
+    pub e0_mgd: f64,
+    /// Instants [√(d/g)], ascending multiples of `stop.sample_every`; the run does not stop
+    /// before the last.
+    pub times: Vec<f64>,
+    /// End that run at the last frame (a frames-only run: its summary row is partial and
+    /// marked `stopped` = 0; the stopping-rule check skips it). Default: run to rest.
+    #[serde(default)]
+    pub end_after_last: bool,
 }
 
 impl Default for RunParams {
@@ -296,6 +313,7 @@ impl Default for RunParams {
             grain_density: 2600.0,
             mpm_link_cells: 2.0,
             stop: StopRule::default(),
+            snapshots: None,
         }
     }
 }
@@ -316,6 +334,15 @@ impl Validate for RunParams {
         c.positive("stop.ek_ratio", s.ek_ratio);
         c.non_negative("stop.still_time", s.still_time);
         c.positive("stop.still_tol", s.still_tol);
+        if let Some(sn) = &self.snapshots {
+            c.check(self.energies_mgd.iter().any(|e| (e - sn.e0_mgd).abs() <= 1e-9 * e.abs()), "snapshots.e0_mgd", sn.e0_mgd, "one of energies_mgd (the run whose frames are taken)");
+            c.check(!sn.times.is_empty(), "snapshots.times", "[]", "a non-empty list of instants [√(d/g)]");
+            for (i, t) in sn.times.iter().enumerate() {
+                let q = t / s.sample_every;
+                let ok = t.is_finite() && *t >= 0.0 && *t <= s.t_max && (q - q.round()).abs() < 1e-9 && (i == 0 || *t > sn.times[i - 1]);
+                c.check(ok, &format!("snapshots.times[{i}]"), t, "ascending instants in [0, stop.t_max] √(d/g), multiples of stop.sample_every (frames are taken at sample instants)");
+            }
+        }
         match self.method {
             Method::Dem => check_dem_pile(&self.dem, self.stiffness_factor, &mut c),
             Method::Cd => {
@@ -411,10 +438,11 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             let run = p.dem.softened(p.stiffness_factor);
             for (k, &e) in p.energies_mgd.iter().enumerate() {
                 let clock = std::time::Instant::now();
+                let ft = frame_times(&p, e, g);
                 let r = if p.method == Method::Dem {
-                    crate::dem::pile::run_pile(&pile.state, &run, p.profile, e * unit, &p.stop)?
+                    crate::dem::pile::run_pile_frames(&pile.state, &run, p.profile, e * unit, &p.stop, &ft)?
                 } else {
-                    crate::cd::pile::run_excited_pile(&pile.state, &p.cd, p.profile, e * unit, &p.stop)?
+                    crate::cd::pile::run_excited_pile_frames(&pile.state, &p.cd, p.profile, e * unit, &p.stop, &ft)?
                 };
                 let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
                 runs.push((s, r, clock.elapsed().as_secs_f64()));
@@ -447,13 +475,32 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             let unit = mass * g * D_NORM;
             for (k, &e) in p.energies_mgd.iter().enumerate() {
                 let clock = std::time::Instant::now();
-                let r = crate::mpm::pile::run_pile(&loaded, &mp, p.profile, e * unit, &p.stop, link)?;
+                let ft = frame_times(&p, e, g);
+                let r = crate::mpm::pile::run_pile_frames(&loaded, &mp, p.profile, e * unit, &p.stop, link, &ft)?;
                 let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
                 runs.push((s, r, clock.elapsed().as_secs_f64()));
                 ctx.set_progress((k + 1) as f64 / n as f64);
             }
             if let Some(b) = p.mpm_base_friction {
                 out.scalar("mpm_base_friction", b);
+            }
+            if let Some(f0) = runs.iter().flat_map(|r| r.1.frames.first()).find(|f| f.t == 0.0) {
+                // fig4-24b: σ_yy after the geostatic stage against the overburden −ρg(h_s(x) − y)
+                // of the seeding surface, over the points deeper than 2 spacings.
+                let (err, n_deep) = lithostatic_misfit(f0, &pile.profile, pile.l0, mp.material.density, g, 2.0 * mp.spacing());
+                out.scalar("snap_sigma_yy_rel_err", err).scalar("snap_sigma_yy_points", n_deep as f64);
+                // Not exact: the frictional wall and base carry part of the weight (column
+                // fig4-04: 2.5 % at the base) and the seeding surface is the grains' rough top.
+                out.checks.push(Claim::at_most("sigma-yy-lithostatic", "fig4-24b: σ_yy after the geostatic stage ≈ −ρg(h_surface(x) − y) (relative L2 misfit over the points > 2 spacings deep; bound 0.2)", 0.2, err));
+                // figures.md fig4-24: "Expected max v_x = kH ≈ 1.1 m/s at the base next to the
+                // wall (triangle estimate)": E_0/(M g d) = (kH)²/(4 g d) for a right triangle.
+                if p.profile == Profile::Gradient {
+                    let e_mgd = runs.iter().find(|r| r.1.frames.first().is_some_and(|f| f.t == 0.0)).map(|r| r.0.e0_mgd).unwrap_or(f64::NAN);
+                    let kh = (4.0 * g * D_NORM * e_mgd).sqrt();
+                    let vmax = f0.vx.iter().cloned().fold(0.0, f64::max);
+                    out.scalar("snap_vx_max_m_s", vmax).scalar("snap_vx_triangle_m_s", kh);
+                    out.checks.push(Claim::rel("vx-max-triangle", &format!("fig4-24c: largest v_x at t = 0 against the right-triangle estimate kH = √(4 g d E_0) = {kh:.3} m/s (the pile is not an exact triangle; 10 %)"), kh, vmax, 0.1));
+                }
             }
             out.scalar("mpm_friction", mu)
                 .scalar("mpm_friction_deg", mu.atan().to_degrees())
@@ -499,9 +546,16 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     }
     let names = ["e0_mgd", "t", "l_d", "h_d", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0"];
     out.table("series", frame(names.iter().cloned().zip(cols).collect())?);
+    if let Some(sn) = &p.snapshots {
+        snapshot_outputs(&mut out, &p, sn, &runs, g)?;
+    }
     let worst = runs.iter().map(|(s, _, _)| (s.e0_check - 1.0).abs()).fold(0.0, f64::max);
     out.checks.push(Claim::at_most("e0-exact", "fig4-24: Σ ½ m v_x² at t = 0 equals E_0 (largest |ratio − 1| over the energies)", 1e-9, worst));
-    let unstopped = runs.iter().filter(|(s, _, _)| s.stopped == 0.0).count();
+    let frames_only = |s: &Summary| p.snapshots.as_ref().is_some_and(|sn| sn.end_after_last && (sn.e0_mgd - s.e0_mgd).abs() <= 1e-9 * s.e0_mgd.abs());
+    if runs.iter().any(|(s, _, _)| frames_only(s)) {
+        out.note("The snapshot run ended at its last frame (snapshots.end_after_last): its row of the table is of a truncated run (stopped = 0), not a run-out.".to_string());
+    }
+    let unstopped = runs.iter().filter(|(s, _, _)| s.stopped == 0.0 && !frames_only(s)).count();
     out.checks.push(Claim::at_most("stopped", "every run met the stopping rule before stop.t_max (number that did not)", 0.0, unstopped as f64));
     out.scalar("runs", runs.len() as f64).scalar("method_code", p.method as u8 as f64);
     out.note(format!("Wall time per energy [s]: {}.", runs.iter().map(|r| format!("{:.1}", r.2)).collect::<Vec<_>>().join(", ")));
@@ -533,10 +587,89 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     Ok(out)
 }
 
+/// Frame instants [s] of the run at `e` [mgd] (none unless it is the snapshot run).
+fn frame_times(p: &RunParams, e: f64, g: f64) -> FrameTimes {
+    match &p.snapshots {
+        Some(sn) if (sn.e0_mgd - e).abs() <= 1e-9 * e.abs() => FrameTimes { times: sn.times.iter().map(|t| t * (D_NORM / g).sqrt()).collect(), end_after_last: sn.end_after_last },
+        _ => FrameTimes::default(),
+    }
+}
+
+/// Relative L2 misfit of σ_yy against −ρg(h_s(x) − y) over the points deeper than `depth`.
+fn lithostatic_misfit(f: &Frame, profile: &[(f64, f64)], l0: f64, rho: f64, g: f64, depth: f64) -> (f64, usize) {
+    let (mut num, mut den, mut n) = (0.0, 0.0, 0usize);
+    for i in 0..f.x.len() {
+        let z = surface_at(profile, f.x[i], l0) - f.y[i];
+        if z > depth {
+            let want = -rho * g * z;
+            num += (f.sigma_yy[i] - want).powi(2);
+            den += want * want;
+            n += 1;
+        }
+    }
+    (if den > 0.0 { (num / den).sqrt() } else { f64::NAN }, n)
+}
+
+/// The snapshot run's frames (`snapshots` table, the `snapshot` kind's schema with time in
+/// √(d/g)), per-frame front, cavity and wall gap (`snapshot_metrics`), and the chapter's
+/// statements on the cavity and the left wall (figs 4.31, 4.32, 4.42, 4.43).
+fn snapshot_outputs(out: &mut Output, p: &RunParams, sn: &SnapSpec, runs: &[(Summary, PileRun, f64)], g: f64) -> anyhow::Result<()> {
+    let tu = (D_NORM / g).sqrt();
+    let Some((_, r, _)) = runs.iter().find(|(s, _, _)| (s.e0_mgd - sn.e0_mgd).abs() <= 1e-9 * sn.e0_mgd.abs()) else {
+        anyhow::bail!("snapshots.e0_mgd = {} matches no run", sn.e0_mgd)
+    };
+    anyhow::ensure!(r.frames.len() == sn.times.len(), "the {} mgd run took {} of {} frames (it ended at {:.1} √(d/g))", sn.e0_mgd, r.frames.len(), sn.times.len(), r.samples.last().map(|q| q.t / tu).unwrap_or(0.0));
+    out.table("snapshots", super::snapshot::frame_rows(&r.frames, "t_over_sqrt_d_g", tu)?);
+    let d = D_NORM;
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 5];
+    for (k, f) in r.frames.iter().enumerate() {
+        let l = r.samples.iter().min_by(|a, b| (a.t - f.t).abs().total_cmp(&(b.t - f.t).abs())).map(|q| q.l).unwrap_or(f64::NAN);
+        // over every body (the linked front of a thinning grain layer jumps; the cavity is
+        // left of the highest point, which a far grain does not move)
+        let reach = f.x.iter().zip(&f.half).map(|(x, h)| x + h).fold(0.0, f64::max);
+        // MPM: points are one continuum while they share grid nodes (mpm_link_cells, as the front)
+        let extra = match p.method {
+            Method::Mpm => (if p.mpm_link_cells > 0.0 { p.mpm_link_cells * p.mpm.cell_size } else { 1.5 * p.mpm.spacing() } - 2.0 * f.half.first().copied().unwrap_or(0.0)).max(0.0),
+            _ => 0.0,
+        };
+        let cav = cavity_area(&f.x, &f.y, &f.half, reach, 2.0 * d, extra) / (d * d);
+        let gap = wall_gap(&f.x, &f.half) / d;
+        for (c, v) in cols.iter_mut().zip([k as f64, f.t / tu, l / d, cav, gap]) {
+            c.push(v);
+        }
+    }
+    let names = ["k", "t_over_sqrt_d_g", "front_d", "cavity_d2", "wall_gap_d"];
+    let (cav, gap) = (cols[3].clone(), cols[4].clone());
+    out.table("snapshot_metrics", frame(names.iter().cloned().zip(cols).collect())?);
+    let peak = cav.iter().cloned().fold(0.0, f64::max);
+    let last = *cav.last().unwrap_or(&f64::NAN);
+    let worst_gap = gap.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let fill = if peak > 0.0 { last / peak } else { f64::NAN };
+    out.scalar("snap_e0_mgd", sn.e0_mgd).scalar("snap_cavity_peak_d2", peak).scalar("snap_cavity_last_d2", last).scalar("snap_cavity_last_over_peak", fill).scalar("snap_wall_gap_max_d", worst_gap);
+    let span = format!("frames at {} √(d/g), E_0 = {} mgd", sn.times.iter().map(|t| format!("{t}")).collect::<Vec<_>>().join(", "), sn.e0_mgd);
+    // The chapter's statements are about the sequence: a single frame (fig4-24's t = 0) decides none.
+    if r.frames.len() < 3 {
+        return Ok(());
+    }
+    match p.profile {
+        Profile::Gradient => {
+            // In contact: a grain within half a diameter of the wall; for MPM, material in the
+            // wall's grid cell (the wall is a node line: the continuum meets it there).
+            let eps = if p.method == Method::Mpm { p.mpm.cell_size / D_NORM } else { 0.5 };
+            out.claims.push(Claim::at_most("wall-contact", &format!("\"the granular heap remains in contact with the left wall irrespective of the input energy\": largest over the frames of the smallest body–wall gap min(x − half), in d ({span}; bound {eps:.2} d: {})", if p.method == Method::Mpm { "one grid cell" } else { "half a grain" }), eps, worst_gap));
+            out.claims.push(Claim::at_most("cavity-partly-filled", &format!("\"This cavity gets partially filled as the granular mass at the top collapse behind the flowing mass\": cavity area at the last frame over its peak (cavity: the dent left of the highest point under the surface seen from the right, 2 d bins; {span}; bound 0.9)"), 0.9, fill));
+        }
+        Profile::Uniform => {
+            out.claims.push(Claim::at_least("cavity-not-filled", &format!("\"unlike the gradient input velocity, the cavity left behind the granular mass is not filled\": cavity area at the last frame over its peak ({span}; bound 0.9)"), 0.9, fill));
+        }
+    }
+    Ok(())
+}
+
 /// Kind `pile-run`.
 pub const RUN_KIND: Kind = Kind {
     name: "pile-run",
-    version: 1,
+    version: 4,
     about: "pile under horizontal excitation (DEM, CD or MPM) over a list of input energies: run-out, duration, energies, decay (D01, D10–D16)",
     params: typed::<RunParams>,
     run: run_run,

@@ -40,6 +40,28 @@ pub fn mpm_rows(snaps: &[crate::mpm::column::Snapshot], tau_c: f64, half: f64) -
     table(c)
 }
 
+/// The `snapshots` table of any run from frames (pile runs: DEM and CD grains, MPM points),
+/// with the time column `time_col` (t / `t_unit`) and, when the frames carry it, σ_yy.
+pub fn frame_rows(frames: &[crate::analysis::pile::Frame], time_col: &'static str, t_unit: f64) -> anyhow::Result<DataFrame> {
+    let mut cols: Vec<(&str, Vec<f64>)> = ["k", time_col, "x_m", "y_m", "half_m", "vx_m_s", "vy_m_s", "speed_m_s"].iter().map(|n| (*n, Vec::new())).collect();
+    let stress = !frames.is_empty() && frames.iter().all(|f| f.sigma_yy.len() == f.x.len());
+    if stress {
+        cols.push(("sigma_yy_pa", Vec::new()));
+    }
+    for (k, f) in frames.iter().enumerate() {
+        for i in 0..f.x.len() {
+            let row = [k as f64, f.t / t_unit, f.x[i], f.y[i], f.half[i], f.vx[i], f.vy[i], f.vx[i].hypot(f.vy[i])];
+            for (c, v) in cols.iter_mut().zip(row) {
+                c.1.push(v);
+            }
+            if stress {
+                cols[8].1.push(f.sigma_yy[i]);
+            }
+        }
+    }
+    frame(cols)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn push(c: &mut BTreeMap<&str, Vec<f64>>, k: usize, t: f64, x: f64, y: f64, half: f64, vx: f64, vy: f64) {
     for (name, v) in [("k", k as f64), ("t_over_tau_c", t), ("x_m", x), ("y_m", y), ("half_m", half), ("vx_m_s", vx), ("vy_m_s", vy), ("speed_m_s", vx.hypot(vy))] {
@@ -79,6 +101,33 @@ pub struct SnapPanel {
     /// Body shape.
     #[serde(default)]
     pub shape: Body,
+    /// Column colouring this panel (default: the stage's `colour`; `none`: uniform fill).
+    /// Panels coloured by the same column share one range.
+    #[serde(default)]
+    pub colour: Option<String>,
+    /// Colour-bar label of this panel's column (default: the stage's `colour_label`).
+    #[serde(default)]
+    pub colour_label: Option<String>,
+    /// View window of this panel [x0, x1, y0, y1] m (a zoom; default: the stage's view).
+    #[serde(default)]
+    pub view: Option<[f64; 4]>,
+    /// Draw background-grid lines every `grid_m` metres (MPM cells, fig4-24a).
+    #[serde(default)]
+    pub grid_m: Option<f64>,
+}
+
+/// The time column of the upstream `snapshots` tables and its unit in titles.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TimeAxis {
+    /// Column name.
+    pub column: String,
+    /// Unit shown in panel titles.
+    pub unit: String,
+}
+
+impl Default for TimeAxis {
+    fn default() -> Self { TimeAxis { column: "t_over_tau_c".into(), unit: "τ_c".into() } }
 }
 
 /// Parameters of a `snapshot` stage.
@@ -103,6 +152,9 @@ pub struct SnapParams {
     /// the panels' extents (same scale everywhere).
     #[serde(default)]
     pub view: Option<[f64; 4]>,
+    /// Time column and unit (columns: t/τ_c; piles: `t_over_sqrt_d_g`, √(d/g)).
+    #[serde(default)]
+    pub time: TimeAxis,
 }
 
 fn snap_table() -> String {
@@ -139,9 +191,19 @@ impl Validate for SnapParams {
         if let Some([lo, hi]) = self.range {
             c.check(lo.is_finite() && hi.is_finite() && hi > lo, "range", format!("[{lo}, {hi}]"), "[lo, hi] with lo < hi");
         }
-        if let Some([x0, x1, y0, y1]) = self.view {
-            c.check([x0, x1, y0, y1].iter().all(|v| v.is_finite()) && x1 > x0 && y1 > y0, "view", format!("[{x0}, {x1}, {y0}, {y1}]"), "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1");
+        let view_ok = |v: [f64; 4]| v.iter().all(|x| x.is_finite()) && v[1] > v[0] && v[3] > v[2];
+        if let Some(v) = self.view {
+            c.check(view_ok(v), "view", format!("{v:?}"), "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1");
         }
+        for (i, p) in self.panels.iter().enumerate() {
+            if let Some(v) = p.view {
+                c.check(view_ok(v), &format!("panels[{i}].view"), format!("{v:?}"), "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1");
+            }
+            if let Some(g) = p.grid_m {
+                c.check(g.is_finite() && g > 0.0, &format!("panels[{i}].grid_m"), g, "a grid spacing > 0 [m]");
+            }
+        }
+        c.check(!self.time.column.is_empty(), "time.column", "\"\"", "the name of the upstream tables' time column");
         c.issues
     }
 }
@@ -154,6 +216,14 @@ struct Rows {
     t: f64,
 }
 
+impl SnapParams {
+    /// The column colouring `panel` (None: uniform fill).
+    fn colour_of<'a>(&'a self, panel: &'a SnapPanel) -> Option<&'a str> {
+        let c = panel.colour.as_deref().unwrap_or(&self.colour);
+        (c != "none").then_some(c)
+    }
+}
+
 fn rows(ctx: &StageCtx, p: &SnapParams, panel: &SnapPanel) -> anyhow::Result<Rows> {
     let inp = ctx.inputs_of(&panel.from).first().ok_or_else(|| anyhow!("stage `{}`: panel `{}` reads role `{}`, which names no input", ctx.id, panel.title, panel.from))?;
     let df = inp.table(&panel.table)?;
@@ -164,7 +234,11 @@ fn rows(ctx: &StageCtx, p: &SnapParams, panel: &SnapPanel) -> anyhow::Result<Row
         let c = col_f64(&df, name).map_err(|e| anyhow!("input `{}` table `{}`: {e}", inp.id, panel.table))?;
         Ok(keep.iter().map(|&i| c[i]).collect())
     };
-    Ok(Rows { x: pick("x_m")?, y: pick("y_m")?, half: pick("half_m")?, v: pick(&p.colour)?, t: pick("t_over_tau_c")?[0] })
+    let v = match p.colour_of(panel) {
+        Some(c) => pick(c)?,
+        None => Vec::new(),
+    };
+    Ok(Rows { x: pick("x_m")?, y: pick("y_m")?, half: pick("half_m")?, v, t: pick(&p.time.column)?[0] })
 }
 
 /// Place standalone SVG documents side by side (row-major) in one document.
@@ -194,8 +268,19 @@ fn tile(svgs: &[String], cols: usize, foot: &str) -> String {
 fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: SnapParams = decode(ctx)?;
     let data: Vec<Rows> = p.panels.iter().map(|panel| rows(ctx, &p, panel)).collect::<anyhow::Result<_>>()?;
-    let vmax = data.iter().flat_map(|r| r.v.iter().copied()).filter(|v| v.is_finite()).fold(0.0, f64::max);
-    let range = p.range.map(|[a, b]| (a, b)).unwrap_or((0.0, vmax.max(1e-12)));
+    // One colour range per colouring column, shared by the panels it colours.
+    let range_of = |col: &str| -> (f64, f64) {
+        if col == p.colour
+            && let Some([a, b]) = p.range
+        {
+            return (a, b);
+        }
+        let vals = p.panels.iter().zip(&data).filter(|(q, _)| p.colour_of(q) == Some(col)).flat_map(|(_, r)| r.v.iter().copied()).filter(|v| v.is_finite());
+        let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        // Non-negative fields (speeds) start at 0, as before; signed ones (σ_yy, v_x) span their values.
+        let lo = if lo >= 0.0 { 0.0 } else { lo };
+        (lo, if hi > lo { hi } else { lo + 1e-12 })
+    };
     let view = p.view.map(|[a, b, c, d]| (a, b, c, d)).unwrap_or_else(|| {
         let mut v = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for r in &data {
@@ -210,26 +295,60 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     });
     let mut out = Output::default();
     let mut svgs = Vec::new();
+    let mut ranges: Vec<(String, String, (f64, f64))> = Vec::new();
     for (k, (panel, r)) in p.panels.iter().zip(&data).enumerate() {
-        out.scalar(&format!("panel{k}_bodies"), r.x.len() as f64).scalar(&format!("panel{k}_t_over_tau_c"), r.t).scalar(&format!("panel{k}_max_{}", p.colour), r.v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        let col = p.colour_of(panel);
+        let view = panel.view.map(|[a, b, c, d]| (a, b, c, d)).unwrap_or(view);
+        out.scalar(&format!("panel{k}_bodies"), r.x.len() as f64).scalar(&format!("panel{k}_{}", p.time.column), r.t);
+        let field = col.map(|c| {
+            let range = range_of(c);
+            let label = panel.colour_label.clone().unwrap_or_else(|| if c == p.colour { p.colour_label.clone() } else { c.to_string() });
+            out.scalar(&format!("panel{k}_max_{c}"), r.v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+            if !ranges.iter().any(|x| x.0 == c) {
+                ranges.push((c.to_string(), label.clone(), range));
+            }
+            Field { values: &r.v, label, range }
+        });
+        let mut segments = vec![Segment { a: (view.0, 0.0), b: (view.1, 0.0), color: "black", width: 2.0, dashed: false }];
+        if let Some(g) = panel.grid_m {
+            let (i0, i1) = ((view.0 / g).ceil() as i64, (view.1 / g).floor() as i64);
+            for i in i0..=i1 {
+                segments.push(Segment { a: (i as f64 * g, view.2), b: (i as f64 * g, view.3), color: "#888", width: 0.6, dashed: false });
+            }
+            let (j0, j1) = ((view.2 / g).ceil() as i64, (view.3 / g).floor() as i64);
+            for j in j0..=j1 {
+                segments.push(Segment { a: (view.0, j as f64 * g), b: (view.1, j as f64 * g), color: "#888", width: 0.6, dashed: false });
+            }
+        }
         let snap = Snapshot {
-            title: format!("{} (t = {:.2} τ_c)", panel.title, r.t),
+            title: format!("{} (t = {:.2} {})", panel.title, r.t, p.time.unit),
             footer: String::new(),
             x: &r.x,
             y: &r.y,
             half: &r.half,
             shape: match panel.shape { Body::Disk => Shape::Disk, Body::Square => Shape::Square },
-            field: Some(Field { values: &r.v, label: p.colour_label.clone(), range }),
+            field,
             black: None,
             fill: None,
-            segments: vec![Segment { a: (view.0, 0.0), b: (view.1, 0.0), color: "black", width: 2.0, dashed: false }],
+            segments,
             view: Some(view),
             width_px: 420.0,
         };
         svgs.push(snap.to_svg());
     }
+    let range = ranges.iter().find(|x| x.0 == p.colour).map(|x| x.2).or(ranges.first().map(|x| x.2)).unwrap_or((0.0, 0.0));
     out.scalar("colour_max", range.1);
-    let foot = footer(&ctx.profile, &format!("one colour range for every panel: {} from {:.3} to {:.3}", p.colour_label, range.0, range.1));
+    if ranges.len() > 1 {
+        for (c, _, r) in &ranges {
+            out.scalar(&format!("range_{c}_lo"), r.0).scalar(&format!("range_{c}_hi"), r.1);
+        }
+    }
+    let shared: Vec<String> = ranges.iter().map(|(_, l, r)| format!("{l} from {:.3} to {:.3}", r.0, r.1)).collect();
+    let foot = if ranges.len() == 1 {
+        footer(&ctx.profile, &format!("one colour range for every panel: {} from {:.3} to {:.3}", ranges[0].1, range.0, range.1))
+    } else {
+        footer(&ctx.profile, &format!("one colour range per field, shared by its panels: {}", shared.join("; ")))
+    };
     out.figure("figure", tile(&svgs, p.columns, &foot));
     Ok(out)
 }
@@ -237,7 +356,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `snapshot`.
 pub const KIND: Kind = Kind {
     name: "snapshot",
-    version: 1,
+    version: 2,
     about: "particle / material-point snapshots declared in YAML: panels of upstream snapshot rows, one shared colour range",
     params: typed::<SnapParams>,
     run,
