@@ -92,12 +92,11 @@ pub struct Measured<'a> {
 pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[String], measured: Option<&Measured>) -> io::Result<()> {
     let entry = cache.entry_dir(key);
     let files = cache.entry_files(key).map_err(|why| fsio::at("cannot publish the cache entry", &entry, io::Error::other(why)))?;
-    // the stage's methods and wall time, from its run record
+    // the stage's methods, from its run record
     let stamp_of = measured.map(|m| {
         let rec: Value = fsio::read(&entry.join("record.json")).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or(Value::Null);
         let ms = crate::report::measured::methods(&rec);
-        let wall = rec.get("wall_s").and_then(|v| v.as_f64());
-        (crate::report::measured::footer_line(m.profile, &ms, m.errors, wall), crate::report::measured::json_block(m.profile, &ms, m.errors, wall))
+        (crate::report::measured::footer_line(m.profile, &ms, m.errors), crate::report::measured::json_block(m.profile, &ms, m.errors))
     });
     let sets = dir.join(SETS);
     fsio::create_dir_all(&sets)?;

@@ -3,9 +3,12 @@
 //! CD), the relative error of the setting the profile's figures use against that method's
 //! finest setting (± standard error where an ensemble was run) and the wall time of one
 //! run there. When a stage is published, its figures get one footer line and its
-//! `ID.json` a `measured` block with those numbers for the stage's method(s) and the
-//! stage's own wall time from its run record — stamped on what is published, never on
-//! the cache entry, so no stage's cache key depends on the atlas.
+//! `ID.json` a `measured` block with those numbers for the stage's method(s) — stamped on
+//! what is published, never on the cache entry, so no stage's cache key depends on the
+//! atlas. The stage's own wall time stays in its run record (`ID.record.json`, shown on
+//! the report page): a figure of a stage with no simulation behind it stays bit-identical
+//! across runs; one with a method carries that method's one-run wall time, fixed by the
+//! `wp-summary` cache entry it was read from.
 
 use std::collections::BTreeMap;
 
@@ -94,30 +97,26 @@ pub fn pct(e: f64, se: f64) -> String {
 }
 
 /// The footer line of a stage's figures: its methods' measured errors and one-run wall
-/// times at the profile's setting, and the stage's own wall time.
-pub fn footer_line(profile: &str, ms: &[&str], errs: &ProfileErrors, stage_wall_s: Option<f64>) -> String {
+/// times at the profile's setting.
+pub fn footer_line(profile: &str, ms: &[&str], errs: &ProfileErrors) -> String {
     let parts: Vec<String> = ms
         .iter()
         .filter_map(|m| errs.get(*m).map(|e| format!("{} error {} at the {profile} setting {} (one run {:.1} s)", m.to_uppercase(), pct(e.error, e.error_se), e.setting, e.wall_s)))
         .collect();
-    let what = if parts.is_empty() {
+    if parts.is_empty() {
         if ms.is_empty() { "measured error: — (no simulation)".to_string() } else { "measured error: — (wp-summary not run for this profile)".to_string() }
     } else {
         format!("measured (wp-summary): {}", parts.join("; "))
-    };
-    match stage_wall_s {
-        Some(w) => format!("{what} · this stage {w:.1} s"),
-        None => what,
     }
 }
 
 /// The `measured` block of a stage's published `ID.json`.
-pub fn json_block(profile: &str, ms: &[&str], errs: &ProfileErrors, stage_wall_s: Option<f64>) -> Value {
+pub fn json_block(profile: &str, ms: &[&str], errs: &ProfileErrors) -> Value {
     let per: Vec<Value> = ms
         .iter()
         .filter_map(|m| errs.get(*m).map(|e| json!({ "method": m, "setting": e.setting, "rel_error": e.error, "rel_error_se": e.error_se, "one_run_wall_s": e.wall_s })))
         .collect();
-    json!({ "source": "wp-summary", "profile": profile, "methods": per, "stage_wall_s": stage_wall_s })
+    json!({ "source": "wp-summary", "profile": profile, "methods": per })
 }
 
 /// Add one footer line under an SVG figure: the canvas grows by 16 px (root `height` and
@@ -195,9 +194,10 @@ mod tests {
         let rec = json!({ "kind": "plot", "inputs": [{ "role": "dem", "id": "col-dem" }, { "role": "wp", "id": "wp-mpm-column" }] });
         assert_eq!(methods(&rec), vec!["mpm"]);
         assert_eq!(methods(&json!({ "kind": "dem-collapse", "inputs": [] })), vec!["dem"]);
-        let l = footer_line("quick", &["dem"], &errs, Some(12.34));
-        assert_eq!(l, "measured (wp-summary): DEM error 7.3 ± 9.4 % at the quick setting k0.01-dt0.05 (one run 10.8 s) · this stage 12.3 s");
-        let j = json_block("quick", &["mpm"], &errs, None);
+        let l = footer_line("quick", &["dem"], &errs);
+        assert_eq!(l, "measured (wp-summary): DEM error 7.3 ± 9.4 % at the quick setting k0.01-dt0.05 (one run 10.8 s)");
+        assert_eq!(footer_line("quick", &[], &errs), "measured error: — (no simulation)");
+        let j = json_block("quick", &["mpm"], &errs);
         assert_eq!(j["methods"][0]["rel_error"], json!(0.052));
         assert!(j["methods"][0]["rel_error_se"].is_null());
     }
