@@ -163,3 +163,23 @@ fn runout_helpers() {
     let (v, r2, n) = line_fit(&t, &l, 0.8, 2.8);
     assert!((v - 2.0).abs() < 1e-12 && (r2 - 1.0).abs() < 1e-12 && (19..=21).contains(&n));
 }
+
+#[test]
+fn deposit_front_shape_tells_a_triangle_from_a_parabola() {
+    // fig 4.20's measure: a straight (triangular) front is fitted exactly by a line, a
+    // parabolic one is not; the R² gain of the quadratic separates the two.
+    use granrepro::analysis::runout::{poly_r2, surface_profile};
+    let x: Vec<f64> = (0..30).map(|k| 0.5 + k as f64).collect();
+    let tri: Vec<f64> = x.iter().map(|v| 10.0 - v / 3.0).collect();
+    let par: Vec<f64> = x.iter().map(|v| 10.0 * (1.0 - (v / 30.0).powi(2))).collect();
+    let gain = |h: &[f64]| poly_r2(&x, h, 2) - poly_r2(&x, h, 1);
+    assert!(gain(&tri).abs() < 1e-9, "a line gains nothing: {}", gain(&tri));
+    assert!(gain(&par) > 0.02, "a parabola gains: {}", gain(&par));
+    // the surface of grains stacked to those heights is read back bin by bin
+    let half = vec![0.5; x.len()];
+    let y: Vec<f64> = tri.iter().map(|h| h - 0.5).collect();
+    let prof = surface_profile(&x, &y, &half, 1.0);
+    for ((_, h), want) in prof.iter().zip(&tri) {
+        assert!((h - want).abs() < 1e-12);
+    }
+}

@@ -20,6 +20,8 @@ fn changed(sets: &[&str]) -> BTreeSet<String> {
 /// Figures, fits and comparisons drawn from a stage: they change with it by design.
 fn is_view(id: &str) -> bool {
     id.starts_with("fig4-") || id.starts_with("fit-") || id.ends_with("-claims") || id == "wp-summary"
+        // analyses of the column runs' tables (issue 9): statistics over the sweeps
+        || id == "inertial-column" || id == "front-jumps"
 }
 
 #[test]

@@ -33,6 +33,30 @@ pub enum Link {
     },
     /// Centres closer than a fixed distance [m] (MPM: 1.5 × initial point spacing).
     Distance(f64),
+    /// MPM points interact only through the background grid: two are linked when some
+    /// node (node lines at integer multiples of `h` from the wall x = 0 and the base
+    /// y = 0) lies strictly within `support` of both, in x and in y — uGIMP support
+    /// h + l_p. This is the DEM's rule (bodies that interact are one mass) for material
+    /// points: a stretched film whose points drift farther apart than 2 l_p + gap still
+    /// shares nodes, while points separated by an empty cell do not.
+    SharedNode {
+        /// Grid spacing [m].
+        h: f64,
+        /// Half-width of a point's node support [m] (uGIMP: h + l_p).
+        support: f64,
+    },
+}
+
+/// Node-index range (inclusive) of the nodes strictly within `support` of `c` on a
+/// lattice of spacing `h` through 0.
+fn node_range(c: f64, h: f64, support: f64) -> (i64, i64) {
+    (((c - support) / h).floor() as i64 + 1, ((c + support) / h).ceil() as i64 - 1)
+}
+
+/// Do two points share a node of the grid (see [`Link::SharedNode`])?
+fn share_node(xi: f64, yi: f64, xj: f64, yj: f64, h: f64, support: f64) -> bool {
+    let overlap = |a: (i64, i64), b: (i64, i64)| a.0.max(b.0) <= a.1.min(b.1);
+    overlap(node_range(xi, h, support), node_range(xj, h, support)) && overlap(node_range(yi, h, support), node_range(yj, h, support))
 }
 
 /// Front measurements of one configuration.
@@ -69,6 +93,7 @@ pub fn components(body: &Body, link: Link) -> Vec<u32> {
     let reach = match link {
         Link::Contact { gap } => 2.0 * max_half + gap,
         Link::Distance(d) => d,
+        Link::SharedNode { support, .. } => 2.0 * support,
     }
     .max(1e-12);
     let (mut x0, mut y0) = (f64::INFINITY, f64::INFINITY);
@@ -124,11 +149,15 @@ pub fn components(body: &Body, link: Link) -> Vec<u32> {
                     }
                     let ddx = body.x[j] - body.x[i];
                     let ddy = body.y[j] - body.y[i];
-                    let lim = match link {
-                        Link::Contact { gap } => body.half[i] + body.half[j] + gap,
-                        Link::Distance(d) => d,
+                    let linked = match link {
+                        Link::Contact { gap } => {
+                            let lim = body.half[i] + body.half[j] + gap;
+                            ddx * ddx + ddy * ddy <= lim * lim
+                        }
+                        Link::Distance(d) => ddx * ddx + ddy * ddy <= d * d,
+                        Link::SharedNode { h, support } => share_node(body.x[i], body.y[i], body.x[j], body.y[j], h, support),
                     };
-                    if ddx * ddx + ddy * ddy <= lim * lim {
+                    if linked {
                         let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j as u32));
                         if a != b {
                             let (lo, hi) = if a < b { (a, b) } else { (b, a) };
@@ -199,6 +228,43 @@ mod tests {
         let f = front(&b, Link::Distance(6.0));
         assert_eq!(f.n_main, 6);
         assert!((f.length - 10.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn stretched_mpm_film_is_one_mass_through_its_grid_nodes() {
+        // A spreading MPM toe: points (l_p = 0.25 mm) drifted 1.5 mm apart along the base
+        // inside 2 mm cells. The edge-gap rule (0.5 d̄ = 0.575 mm) cuts it into single
+        // points and the run-out jumps back to the column; the points still share grid
+        // nodes, so through the grid they are one continuum.
+        let (h, lp) = (2e-3, 0.25e-3);
+        let x: Vec<f64> = (0..12).map(|k| 1e-3 + 1.5e-3 * k as f64).collect();
+        let y = vec![0.3e-3; 12];
+        let half = vec![lp; 12];
+        let mut m = vec![1.0; 12];
+        m[0] = 5.0; // the column end, heaviest
+        let b = Body { x: &x, y: &y, half: &half, mass: &m };
+        let old = front(&b, Link::Contact { gap: 0.575e-3 });
+        assert_eq!(old.n_main, 1, "the old rule splits the film");
+        let new = front(&b, Link::SharedNode { h, support: h + lp });
+        assert_eq!(new.n_main, 12);
+        assert!((new.length - (x[11] + lp)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn points_across_an_empty_cell_do_not_share_a_node() {
+        // Nodes at 0, 2, 4, 6, 8 mm; support 2.25 mm. A point at 1.0 mm reaches nodes 0, 2;
+        // one at 5.5 mm reaches nodes 4, 6: nothing shared, two masses. At 4.0 mm it
+        // reaches node 2 (|4 − 2| < 2.25): one mass.
+        let (h, lp) = (2e-3, 0.25e-3);
+        let link = Link::SharedNode { h, support: h + lp };
+        let (y, half, m) = ([1e-3; 2], [lp; 2], [2.0, 1.0]);
+        let apart = front(&Body { x: &[1e-3, 5.5e-3], y: &y, half: &half, mass: &m }, link);
+        assert_eq!(apart.n_main, 1);
+        let near = front(&Body { x: &[1e-3, 4.0e-3], y: &y, half: &half, mass: &m }, link);
+        assert_eq!(near.n_main, 2);
+        // Vertical separation counts too: same x, 5 mm apart in y.
+        let above = front(&Body { x: &[1e-3, 1e-3], y: &[1e-3, 6e-3], half: &half, mass: &m }, link);
+        assert_eq!(above.n_main, 1);
     }
 
     #[test]

@@ -211,6 +211,13 @@ pub struct CollapseOptions {
     /// 1.5 × initial spacing centre distance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub link_gap: Option<Real>,
+    /// D01 main mass through the grid: points linked when they share a background-grid
+    /// node (uGIMP support h + l_p; `analysis::front::Link::SharedNode`) — the MPM's
+    /// interaction, as contact is the DEM's. Replaces `link_gap` for L(t), H(t); the gap
+    /// sensitivity table is still recorded. Fixes the detached-toe jumps of a film whose
+    /// points drift apart by more than 2 l_p + gap inside their cells.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub link_grid: bool,
     /// Extra linking gaps [d̄] whose L(t) is recorded beside the main one.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub link_gap_sensitivity: Vec<Real>,
@@ -233,6 +240,7 @@ impl Default for CollapseOptions {
             skip_geostatic: false,
             stop: None,
             link_gap: None,
+            link_grid: false,
             link_gap_sensitivity: Vec::new(),
             inertial_cell: 3.0,
         }
@@ -577,9 +585,10 @@ pub fn run_collapse_with_progress(
     let mut next_snap = 0usize;
     let mat = params.material.clone();
     let d = mat.grain_diameter;
-    let link = match opts.link_gap {
-        Some(k) => Link::Contact { gap: k * d },
-        None => Link::Distance(1.5 * s),
+    let link = match (opts.link_grid, opts.link_gap) {
+        (true, _) => Link::SharedNode { h: params.cell_size, support: params.cell_size + lp },
+        (false, Some(k)) => Link::Contact { gap: k * d },
+        (false, None) => Link::Distance(1.5 * s),
     };
     let gaps: Vec<Real> = opts.link_gap_sensitivity.iter().map(|k| k * d).collect();
     let grain = Grain { cell: opts.inertial_cell * d, d, rho_s: mat.grain_density, g };

@@ -105,6 +105,9 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "cd-work-precision" => vec![],
         "pile-run" => vec![("pile", One), ("shear", OptionalOne)],
         "pile-runout" => vec![("runs", Many)],
+        "pile-series" => vec![("runs", Many)],
+        "pile-packing" => vec![("pile", One)],
+        "energy-runout" => vec![("col_dem", Many), ("col_mpm", Many), ("pile_dem", One), ("pile_mpm", One)],
         "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],
@@ -117,6 +120,11 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne), ("coarser", OptionalOne)],
         "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
         "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
+        // Column study, rest (issue 9): figs 4.12, 4.15, 4.17, 4.19–4.21.
+        "column-scheme" => vec![("run", One)],
+        "column-inertial" => vec![("mui04", One), ("mui6", One), ("mc04", One), ("mc6", One), ("dem04", One), ("dem6", One)],
+        "column-packing" => vec![("loose", One), ("dense", One)],
+        "column-density-pair" => vec![("loose", One), ("dense", One), ("loose_prep", One), ("dense_prep", One), ("emin", One), ("emax", One)],
         // Free role names, checked against the declaration in `check_roles`.
         "plot" | "sweep-compare" | "snapshot" => vec![],
         "power-law-fit" => {

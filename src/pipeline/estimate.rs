@@ -227,6 +227,14 @@ fn inputs<'a>(p: &'a Pipeline, st: &Stage, role: &str) -> Vec<&'a Value> {
     st.inputs.iter().filter(|(r, _)| r == role).flat_map(|(_, ids)| ids.iter()).filter_map(|id| p.get(id)).map(|s| &s.params).collect()
 }
 
+/// Grains of a pile preparation: its `grains` param when set (> 0), else all of its PSD's.
+fn pile_grains(p: &Pipeline, prep: &Stage) -> Option<f64> {
+    match num(&prep.params, "grains") {
+        Some(n) if n > 0.0 => Some(n),
+        _ => inputs(p, prep, "psd").first().and_then(|c| num(c, "n")),
+    }
+}
+
 /// A ratio, short.
 fn short(r: f64) -> String {
     if r >= 10.0 { format!("{r:.0}") } else { format!("{r:.2}") }
@@ -258,7 +266,26 @@ fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
             let cols: f64 = inputs(p, st, "columns").iter().filter_map(|c| num(c, "area_m2")).sum::<f64>() * dem_rate(v);
             Some((vec![("shear test", shear), ("columns", cols)], true))
         }
-        "dem-pile-prep" => f(("grains", psd_n()?), ("steps", dem_rate(v) * num(v, "pile.max_time").unwrap_or(1.0))),
+        "dem-pile-prep" => f(("grains", pile_grains(p, st)?), ("steps", dem_rate(v) * num(v, "pile.max_time").unwrap_or(1.0))),
+        "pile-run" => {
+            // Every energy runs to stop.t_max at most (in √(d/g); the same d̄ at both
+            // profiles): an upper bound, as the runs stop earlier by the stopping rule.
+            let prep = st.inputs.iter().find(|(r, _)| r == "pile").and_then(|(_, ids)| ids.first()).and_then(|id| p.get(id))?;
+            let grains = pile_grains(p, prep)?;
+            let time = list(v, "energies_mgd").len() as f64 * num(v, "stop.t_max")?;
+            match v.get("method")?.as_str()? {
+                "dem" => f(("grains", grains), ("steps", dem_rate(v) * time)),
+                // Adaptive step below cd.dt: cd.dt bounds the step count from below.
+                "cd" => f(("grains", grains), ("steps", time / num(v, "cd.dt")?)),
+                // Points fill the pile's area (∝ grains) at ppc per h²; the CFL step ∝ h.
+                "mpm" => {
+                    let (h, ppc) = (num(v, "mpm.cell_size")?, num(v, "mpm.ppc")?);
+                    let courant = num(v, "mpm.step.cfl.courant").unwrap_or(1.0);
+                    f(("points", grains * ppc / (h * h)), ("steps", time / (courant * h)))
+                }
+                _ => None,
+            }
+        }
         "mpm-collapse" | "mpm-geostatic" | "mpm-work-precision" => {
             let m = &v["mpm"];
             let c_p = serde_json::from_value::<crate::mpm::params::Material>(m["material"].clone()).ok()?.p_wave_speed();
@@ -337,5 +364,39 @@ mod tests {
         let e = estimate(&p, &proj, &["psd-shear".to_string()]).unwrap();
         assert_eq!(e.rows[0].scale, 1.0);
         assert!(estimate(&p, &proj, &["nope".to_string()]).is_err());
+    }
+
+    /// The pile runs scale by grains (the prep's `grains`, else its PSD's) × steps: the quick
+    /// pile is 250 grains, not psd-pile's quick 1500, and the DEM step grows by √10 with
+    /// the quick profile's softened contacts.
+    #[test]
+    fn paper_pile_runs_scale_by_the_piles_grains() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let p = load(&root.join("pipeline.yaml"), "paper", &[]).unwrap();
+        let q = load(&root.join("pipeline.yaml"), "quick", &[]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let proj = Project::new(dir.path());
+        std::fs::create_dir_all(proj.report_dir("quick")).unwrap();
+        for id in ["pile-dem-g", "fig4-23"] {
+            std::fs::write(proj.report_dir("quick").join(format!("{id}.record.json")), r#"{"wall_s": 10.0, "threads": 1}"#).unwrap();
+        }
+        let e = estimate(&p, &proj, &["pile-dem-g".to_string()]).unwrap();
+        let par = |pl: &Pipeline, id: &str, k: &str| num(&pl.get(id).unwrap().params, k).unwrap();
+        let grains = |pl: &Pipeline| match par(pl, "fig4-23", "grains") {
+            n if n > 0.0 => n,
+            _ => par(pl, "psd-pile", "n"),
+        };
+        assert_eq!(grains(&q), 250.0);
+        assert_eq!(grains(&p), par(&p, "psd-pile", "n"));
+        let steps = |pl: &Pipeline| {
+            let v = &pl.get("pile-dem-g").unwrap().params;
+            par(pl, "pile-dem-g", "stiffness_factor").sqrt() / par(pl, "pile-dem-g", "dem.dt") * list(v, "energies_mgd").len() as f64 * par(pl, "pile-dem-g", "stop.t_max")
+        };
+        let want = grains(&p) / grains(&q) * steps(&p) / steps(&q);
+        let row = e.rows.iter().find(|r| r.id == "pile-dem-g").unwrap();
+        assert!(want > 100.0, "{want}");
+        assert!((row.scale - want).abs() < 1e-9 * want, "{} vs {want}", row.scale);
+        let prep = e.rows.iter().find(|r| r.id == "fig4-23").unwrap();
+        assert!(prep.basis.contains("grains ×52"), "{}", prep.basis);
     }
 }

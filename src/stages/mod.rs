@@ -20,6 +20,9 @@ pub mod fit_stage;
 pub mod laws;
 pub mod mpm_stages;
 pub mod pile_stages;
+pub mod pile_series;
+pub mod energy_runout;
+pub mod pile_packing;
 pub mod plot;
 pub mod psd;
 pub mod snapshot;
@@ -128,6 +131,9 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         pile_stages::PREP_KIND,
         pile_stages::RUN_KIND,
         pile_stages::RUNOUT_KIND,
+        pile_series::KIND,
+        energy_runout::KIND,
+        pile_packing::KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
         cd_stages::SHEAR_KIND,
@@ -140,6 +146,10 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         plot::KIND,
         compare::KIND,
         snapshot::KIND,
+        column_analysis::SCHEME_KIND,
+        column_analysis::INERTIAL_KIND,
+        column_analysis::PACKING_KIND,
+        column_analysis::PAIR_KIND,
     ];
     kinds.into_iter().map(|k| (k.name, k)).collect()
 }

@@ -380,7 +380,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         let ist: Vec<_> = r.series.iter().map(|v| v.inertial_cg).collect();
         super::column_analysis::analyse(&mut out, &super::column_analysis::Run {
             method: "MPM", l0: r.spec.l0, h0: r.spec.h0, tau, d: p.mpm.material.grain_diameter, t: &tt, l: &ll, h: &hh, ek: &ek, ep: &ep, inertial: &ist,
-            gaps: &p.run.link_gap_sensitivity, gap_lengths: &r.gap_lengths, link_gap: p.run.link_gap.unwrap_or(f64::NAN), at_tau: at_tau.as_ref(),
+            gaps: &p.run.link_gap_sensitivity, gap_lengths: &r.gap_lengths, link_gap: if p.run.link_grid { f64::NAN } else { p.run.link_gap.unwrap_or(f64::NAN) }, at_tau: at_tau.as_ref(),
             x_start: &r.initial.x, x_end: &x_end, mass: &r.initial.mass, phi_deg: p.mpm.material.friction_deg, mu_grain: f64::NAN,
             at_rest: r.stopped, g,
         })?;
@@ -407,8 +407,9 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         ));
         if let Some(rule) = p.run.stop {
             out.note(format!(
-                "Stop rule (shared with the DEM): after {} τ_c, grid E_k < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: points (half-size l_p) linked when their edges are within {} d̄ (the DEM's D01 rule).",
-                rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max, p.run.link_gap.map(|g| g.to_string()).unwrap_or_else(|| "1.5 spacings (centre distance)".into())
+                "Stop rule (shared with the DEM): after {} τ_c, grid E_k < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: {}.",
+                rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max,
+                if p.run.link_grid { "points linked when they share a background-grid node (uGIMP support h + l_p: the MPM's interaction, as contact is the DEM's; the edge-gap sensitivity table is kept)".to_string() } else { format!("points (half-size l_p) linked when their edges are within {} d̄ (the DEM's D01 rule)", p.run.link_gap.map(|g| g.to_string()).unwrap_or_else(|| "1.5 spacings (centre distance)".into())) }
             ));
         }
     }
@@ -448,7 +449,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "mpm-collapse",
-    version: 8,
+    version: 9,
     about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
     params: typed::<CollapseParams>,
     run: run_collapse_stage,

@@ -263,6 +263,10 @@ pub struct RunParams {
     pub mpm_pile: MpmPileSpec,
     /// Override of the MPM friction coefficient (material tan φ and base/wall) [-].
     pub mpm_friction: Option<f64>,
+    /// Base (and left-wall) friction alone, the material's φ unchanged (fig 4.41's μ_s) [-].
+    /// Left out of the canonical params when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mpm_base_friction: Option<f64>,
     /// MPM bulk density = grain density × the DEM pile's packing fraction (true), else
     /// `mpm.material.density`.
     pub mpm_density_from_packing: bool,
@@ -287,6 +291,7 @@ impl Default for RunParams {
             mpm: MpmParams::default(),
             mpm_pile: MpmPileSpec::default(),
             mpm_friction: None,
+            mpm_base_friction: None,
             mpm_density_from_packing: true,
             grain_density: 2600.0,
             mpm_link_cells: 2.0,
@@ -327,15 +332,18 @@ impl Validate for RunParams {
                     // grain diameter": a spacing far from d̄ cannot represent the pile.
                     let sp = self.mpm.spacing();
                     c.check(
-                        sp >= 0.2 * D_NORM && sp <= 2.0 * D_NORM,
+                        sp >= 0.2 * D_NORM && sp <= 3.0 * D_NORM,
                         "mpm.cell_size",
                         format!("{} m with ppc {} (point spacing {:.2} mm)", self.mpm.cell_size, self.mpm.ppc, sp * 1e3),
-                        "a point spacing h/√PPC in [0.2, 2] d̄ = [0.49, 4.9] mm (chapter: spacing ≈ d̄)",
+                        "a point spacing h/√PPC in [0.2, 3] d̄ = [0.49, 7.4] mm (chapter: spacing ≈ d̄; its PPC study reaches 6.25 mm = 2.55 d̄ at h = 0.0125 m, PPC 4)",
                     );
                     c.check(self.mpm.ppc <= 100, "mpm.ppc", self.mpm.ppc, "a perfect square in 1..=100 (the chapter's study: 4–100)");
                 }
                 if let Some(mu) = self.mpm_friction {
                     c.check(mu.is_finite() && mu > 0.0 && mu < 2.0, "mpm_friction", mu, "a friction coefficient in (0, 2)");
+                }
+                if let Some(mu) = self.mpm_base_friction {
+                    c.check(mu.is_finite() && mu > 0.0 && mu <= 1.0, "mpm_base_friction", mu, "a base friction coefficient in (0, 1] (the chapter's sweep: 0.1–0.4)");
                 }
                 c.check(self.mpm_pile.domain_length_l0 > 1.0, "mpm_pile.domain_length_l0", self.mpm_pile.domain_length_l0, "> 1 (the grid must hold the run-out)");
                 c.check(p_ok(self.mpm_link_cells), "mpm_link_cells", self.mpm_link_cells, "0 (D01: 1.5 × point spacing) or a distance in cells in (0, 4]");
@@ -426,7 +434,7 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 (None, None) => anyhow::bail!("MPM pile: no friction — give `inputs: {{ shear: shear-cd }}` or `mpm_friction`"),
             };
             mp.material.friction_deg = mu.atan().to_degrees();
-            mp.wall_friction = mu;
+            mp.wall_friction = p.mpm_base_friction.unwrap_or(mu);
             if p.mpm_density_from_packing {
                 mp.material.density = p.grain_density * pile.packing;
             }
@@ -443,6 +451,9 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
                 runs.push((s, r, clock.elapsed().as_secs_f64()));
                 ctx.set_progress((k + 1) as f64 / n as f64);
+            }
+            if let Some(b) = p.mpm_base_friction {
+                out.scalar("mpm_base_friction", b);
             }
             out.scalar("mpm_friction", mu)
                 .scalar("mpm_friction_deg", mu.atan().to_degrees())

@@ -117,6 +117,12 @@ pub struct SeriesSpec {
     /// Palette index (default: the series' position).
     #[serde(default)]
     pub color: Option<usize>,
+    /// One series per distinct value of this column (table source), in ascending order,
+    /// labelled "`label` = value", colours from `color` on: one curve per run of a table
+    /// holding several (e.g. `e0_mgd` of a pile-run `series`). Left out of the canonical
+    /// params when absent (no existing plot's cache key moves).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<String>,
 }
 
 /// A fitted power law to overlay (dashed), from a `power-law-fit` stage.
@@ -236,6 +242,7 @@ impl Validate for PlotParams {
                 c.check(s.x_scale.is_finite() && s.x_scale != 0.0, &format!("{key}.x_scale"), s.x_scale, "a finite non-zero factor");
                 c.check(s.y_scale.is_finite() && s.y_scale != 0.0, &format!("{key}.y_scale"), s.y_scale, "a finite non-zero factor");
                 c.check(!(s.source == Source::Scalars && s.y_div_initial.is_some()), &format!("{key}.y_div_initial"), "with source: scalars", "a table source (scalars have no first row)");
+                c.check(!(s.source == Source::Scalars && s.group.is_some()), &format!("{key}.group"), "with source: scalars", "a table source (one series per distinct value of a column)");
                 for (k, v) in &s.filter {
                     c.check(v.is_number() || v.is_string() || v.is_boolean(), &format!("{key}.filter.{k}"), v, "a number, string or boolean");
                 }
@@ -260,8 +267,8 @@ fn matches_num(v: f64, want: &serde_json::Value) -> bool {
     }
 }
 
-/// Rows of a table as (x, y, err) after filter and normalisation.
-fn table_points(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Vec<(f64, f64, f64)>> {
+/// Rows of a table as (x, y, err, group value) after filter and normalisation.
+fn table_points(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Vec<(f64, f64, f64, f64)>> {
     let df = inp.table(&s.table)?;
     let n = df.height();
     let mut keep = vec![true; n];
@@ -295,11 +302,12 @@ fn table_points(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Vec<(f64, f64,
         None => 1.0,
     };
     let d: Vec<f64> = d.into_iter().map(|v| v * d0).collect();
-    Ok((0..n).filter(|&k| keep[k]).map(|k| (x[k] * s.x_scale, y[k] * s.y_scale / d[k], e[k] * s.y_scale / d[k])).collect())
+    let g = match &s.group { Some(c) => col_f64(&df, c).with_context(|| ctx("group"))?, None => vec![0.0; n] };
+    Ok((0..n).filter(|&k| keep[k]).map(|k| (x[k] * s.x_scale, y[k] * s.y_scale / d[k], e[k] * s.y_scale / d[k], g[k])).collect())
 }
 
 /// One point from an input's scalars (None when the filter drops it).
-fn scalar_point(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Option<(f64, f64, f64)>> {
+fn scalar_point(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Option<(f64, f64, f64, f64)>> {
     let sc = inp.scalars()?;
     for (k, want) in &s.filter {
         let v = *sc.get(k).ok_or_else(|| anyhow!("input `{}` has no scalar `{k}` (filter)", inp.id))?;
@@ -310,13 +318,14 @@ fn scalar_point(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Option<(f64, f
     let get = |k: &str| sc.get(k).copied().ok_or_else(|| anyhow!("input `{}` has no scalar `{k}`", inp.id));
     let d = match &s.y_div { Some(c) => get(c)?, None => 1.0 };
     let e = match &s.err { Some(c) => get(c)?, None => f64::NAN };
-    Ok(Some((get(&s.x)? * s.x_scale, get(&s.y)? * s.y_scale / d, e * s.y_scale / d)))
+    Ok(Some((get(&s.x)? * s.x_scale, get(&s.y)? * s.y_scale / d, e * s.y_scale / d, 0.0)))
 }
 
-fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Series> {
+/// The series of one declaration: one, or one per distinct value of `group`.
+fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Vec<Series>> {
     let inputs = ctx.inputs_of(&s.from);
     anyhow::ensure!(!inputs.is_empty(), "stage `{}`: series `{}` reads role `{}`, which names no input", ctx.id, s.label, s.from);
-    let mut pts: Vec<(f64, f64, f64)> = Vec::new();
+    let mut pts: Vec<(f64, f64, f64, f64)> = Vec::new();
     for inp in inputs {
         match s.source {
             Source::Table => pts.extend(table_points(inp, s)?),
@@ -327,11 +336,23 @@ fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Ser
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
     let style = match s.draw { Draw::Points => Style::Points, Draw::Line => Style::Line, Draw::LinePoints => Style::LinePoints };
-    let mut out = Series::new(s.label.clone(), style, pts.iter().map(|p| (p.0, p.1)).collect(), s.color.unwrap_or(color));
-    if s.err.is_some() {
-        out = out.with_errors(pts.iter().map(|p| p.2).collect());
-    }
-    Ok(out)
+    let mut groups: Vec<f64> = pts.iter().map(|p| p.3).collect();
+    groups.sort_by(|a, b| a.total_cmp(b));
+    groups.dedup();
+    let base = s.color.unwrap_or(color);
+    Ok(groups
+        .iter()
+        .enumerate()
+        .map(|(k, g)| {
+            let sel: Vec<&(f64, f64, f64, f64)> = pts.iter().filter(|p| p.3 == *g).collect();
+            let label = match &s.group { Some(_) => format!("{} = {}", s.label, crate::report::plot::tick(*g)), None => s.label.clone() };
+            let mut out = Series::new(label, style, sel.iter().map(|p| (p.0, p.1)).collect(), base + k);
+            if s.err.is_some() {
+                out = out.with_errors(sel.iter().map(|p| p.2).collect());
+            }
+            out
+        })
+        .collect())
 }
 
 /// The dashed curves of a `power-law-fit` stage: one per regime, over its fitted range.
@@ -360,8 +381,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     for panel in &p.panels {
         let mut series = Vec::new();
         for (j, s) in panel.series.iter().enumerate() {
-            series.push(series_of(ctx, s, j)?);
+            series.extend(series_of(ctx, s, j)?);
         }
+        let n_data = series.len();
         for (j, f) in panel.fits.iter().enumerate() {
             series.extend(fit_series(ctx, f, panel.series.len() + j)?);
         }
@@ -377,7 +399,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
         // Points drawn are what the figure shows: count them (a golden number that moves
         // when a filter or an upstream sweep silently changes).
-        out.scalar(&format!("panel{}_points", charts.len()), series[..panel.series.len()].iter().map(|s| s.points.len() as f64).sum());
+        out.scalar(&format!("panel{}_points", charts.len()), series[..n_data].iter().map(|s| s.points.len() as f64).sum());
         charts.push(Chart {
             title: panel.title.clone().unwrap_or_else(|| caption.clone()),
             footer: String::new(),
