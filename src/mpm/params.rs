@@ -33,6 +33,27 @@ impl Scheme {
     }
 }
 
+/// Shape functions of the background grid as seen by a material point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Shape {
+    /// uGIMP (the thesis' choice): the linear hat convolved with the point's characteristic
+    /// function of half-width l_p = h/(2√PPC).
+    #[default]
+    Gimp,
+    /// Standard MPM: the linear hat itself (GIMP with l_p → 0); a point's weights jump
+    /// when it crosses a cell boundary (cell-crossing noise).
+    Linear,
+}
+
+impl Shape {
+    /// Whether this is the default (GIMP): then the field is left out of the canonical
+    /// params, so stages that never set it keep their cache keys.
+    pub fn is_gimp(&self) -> bool {
+        *self == Shape::Gimp
+    }
+}
+
 /// Constitutive model.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -222,6 +243,9 @@ pub struct MpmParams {
     pub ppc: u32,
     /// Update scheme. Default USL (the thesis' choice).
     pub scheme: Scheme,
+    /// Shape functions: `gimp` (default, the thesis) or `linear` (standard MPM).
+    #[serde(skip_serializing_if = "Shape::is_gimp")]
+    pub shape: Shape,
     /// FLIP fraction of the particle velocity update [0, 1] (1 = pure FLIP, 0 = PIC).
     /// UNSPEC; 1.0 (the Uintah-lineage GIMP codes the thesis built on use FLIP).
     pub flip: Real,
@@ -245,6 +269,7 @@ impl Default for MpmParams {
             cell_size: 2e-3,
             ppc: 16,
             scheme: Scheme::Usl,
+            shape: Shape::Gimp,
             flip: 1.0,
             step: StepRule::Fixed { dt: 1e-6 },
             gravity: crate::math::G,
@@ -272,6 +297,16 @@ impl MpmParams {
     /// GIMP half-width l_p = h/(2√PPC) [m] (figures.md D01: 0.25 mm).
     pub fn half_width(&self) -> Real {
         0.5 * self.spacing()
+    }
+    /// Half-width of the shape functions' particle domain: l_p for GIMP, 0 for the linear
+    /// hat (standard MPM). [`half_width`](Self::half_width) stays the point's half-size
+    /// h/(2√PPC), the body size the run-out and height measurements use (figures.md D01)
+    /// whatever the shape functions.
+    pub fn shape_half_width(&self) -> Real {
+        match self.shape {
+            Shape::Gimp => self.half_width(),
+            Shape::Linear => 0.0,
+        }
     }
 
     /// Every invalid value, all at once.

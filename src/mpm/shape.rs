@@ -108,3 +108,74 @@ fn axis(t: Real, l: Real, inv_h: Real) -> ([Real; 3], [Real; 3]) {
     };
     ([w0, 1.0 - w0 - w2, w2], [d0, -d0 - d2, d2])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mpm::params::{MpmParams, Shape};
+
+    /// Positions (in cells) across a few cells: exact nodes, cell midpoints, the GIMP region
+    /// boundaries for l = ¼ and irregular offsets.
+    fn positions() -> Vec<Real> {
+        let mut u = Vec::new();
+        for i in 2..5 {
+            for f in [0.0, 0.25, 0.5, 0.75, 0.0625, 0.3141, 0.7071, 0.999, 1e-9] {
+                u.push(i as Real + f);
+            }
+        }
+        u
+    }
+
+    #[test]
+    fn partition_of_unity_and_zero_gradient_sum_for_gimp_and_linear() {
+        let h = 2e-3;
+        let (ox, oy) = (-0.01, 0.003);
+        for (shape, ppc) in [(Shape::Gimp, 1), (Shape::Gimp, 4), (Shape::Gimp, 16), (Shape::Linear, 4), (Shape::Linear, 16)] {
+            let p = MpmParams { shape, ppc, cell_size: h, ..MpmParams::default() };
+            let lp = p.shape_half_width();
+            match shape {
+                Shape::Gimp => assert_eq!(lp, h / (2.0 * (ppc as Real).sqrt())),
+                Shape::Linear => assert_eq!(lp, 0.0),
+            }
+            // the point's size used by the front (D01) does not depend on the shape functions
+            assert_eq!(p.half_width(), h / (2.0 * (ppc as Real).sqrt()));
+            for &ux in &positions() {
+                for &uy in &[2.5, 3.0 + 0.37] {
+                    let (x, y) = (ox + ux * h, oy + uy * h);
+                    let st = Stencil::new(x, y, ox, oy, h, lp);
+                    let sw: Real = st.wx.iter().sum::<Real>() * st.wy.iter().sum::<Real>();
+                    assert!((sw - 1.0).abs() < 1e-12, "{shape:?} ppc {ppc} u = {ux}: Σφ = {sw}");
+                    // Σ_i ∇φ_i = Σ_ij (dx_i wy_j, wx_i dy_j) = 0
+                    let gx: Real = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| st.dx[i] * st.wy[j]).sum();
+                    let gy: Real = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| st.wx[i] * st.dy[j]).sum();
+                    assert!(gx.abs() * h < 1e-12 && gy.abs() * h < 1e-12, "{shape:?} ppc {ppc} u = {ux}: Σ∇φ = ({gx}, {gy})");
+                    // every node's weight (and away from nodes its derivative) is the 1D
+                    // function itself; nodes outside the stencil carry no weight
+                    for n in -1..6isize {
+                        let node = st.i0 as isize + n - 1;
+                        let r = x - (ox + node as Real * h);
+                        let (w, d) = gimp_1d(r, h, lp);
+                        let k = n - 1;
+                        if (0..3).contains(&k) {
+                            let k = k as usize;
+                            assert!((st.wx[k] - w).abs() < 1e-12, "{shape:?} ppc {ppc} u = {ux} node {k}: {} vs {w}", st.wx[k]);
+                            if (r / h - (r / h).round()).abs() > 1e-6 {
+                                assert!((st.dx[k] - d).abs() * h < 1e-9, "{shape:?} ppc {ppc} u = {ux} node {k}: {} vs {d}", st.dx[k]);
+                            }
+                            assert!(st.wx[k] >= -1e-15, "negative weight");
+                        } else {
+                            assert_eq!(w, 0.0, "{shape:?} ppc {ppc} u = {ux}: node {node} outside the stencil has weight {w}");
+                        }
+                    }
+                    if shape == Shape::Linear {
+                        // the linear hat: two nodes, φ = 1 − |r|/h, dφ/dx = ∓1/h
+                        let t = ux - ux.floor();
+                        assert_eq!(st.i0 as isize, ux.floor() as isize, "u = {ux}");
+                        assert!((st.wx[0] - (1.0 - t)).abs() < 1e-12 && (st.wx[1] - t).abs() < 1e-12 && st.wx[2] == 0.0, "u = {ux}: {:?}", st.wx);
+                        assert!((st.dx[0] + 1.0 / h).abs() * h < 1e-12 && (st.dx[1] - 1.0 / h).abs() * h < 1e-12 && st.dx[2] == 0.0, "u = {ux}: {:?}", st.dx);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -167,7 +167,7 @@ impl Solver {
             params: params.clone(),
             elastic: Elastic::new(m.young_pa, m.poisson),
             surface: material::surface_of(m),
-            lp: params.half_width(),
+            lp: params.shape_half_width(),
             order: Vec::new(),
             band_start: vec![0; nb + 1],
             key: Vec::new(),

@@ -117,7 +117,8 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         // A hexagonal lattice is monodisperse: no PSD needed.
         "dem-column-prep" => vec![("psd", if params.get("packing").and_then(|p| p.as_str()) == Some("hex") { OptionalOne } else { One })],
         "dem-snapshot" => vec![("column", One)],
-        "dem-collapse" | "dem-compress" | "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne)],
+        "dem-collapse" | "dem-compress" => vec![("column", One), ("calibration", OptionalOne)],
+        "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne), ("coarser", OptionalOne)],
         "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
         "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
         // Column study, rest (issue 9): figs 4.12, 4.15, 4.17, 4.19–4.21.

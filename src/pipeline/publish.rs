@@ -78,10 +78,26 @@ fn mark_svg(bytes: Vec<u8>, overrides: &[String]) -> Vec<u8> {
     out.into_bytes()
 }
 
+/// The profile's measured errors (from the `wp-summary` stage) to stamp on what is
+/// published: a footer line under every figure and a `measured` block in `ID.json`
+/// (`crate::report::measured`).
+pub struct Measured<'a> {
+    /// Profile name.
+    pub profile: &'a str,
+    /// Method → its measured error at the profile's setting.
+    pub errors: &'a crate::report::measured::ProfileErrors,
+}
+
 /// Publish the cache entry `key` as stage `id`'s set in `dir` (= `reports/<profile>`).
-pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[String]) -> io::Result<()> {
+pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[String], measured: Option<&Measured>) -> io::Result<()> {
     let entry = cache.entry_dir(key);
     let files = cache.entry_files(key).map_err(|why| fsio::at("cannot publish the cache entry", &entry, io::Error::other(why)))?;
+    // the stage's methods, from its run record
+    let stamp_of = measured.map(|m| {
+        let rec: Value = fsio::read(&entry.join("record.json")).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or(Value::Null);
+        let ms = crate::report::measured::methods(&rec);
+        (crate::report::measured::footer_line(m.profile, &ms, m.errors), crate::report::measured::json_block(m.profile, &ms, m.errors))
+    });
     let sets = dir.join(SETS);
     fsio::create_dir_all(&sets)?;
     fsio::set_mode(dir, fsio::DIR_MODE)?;
@@ -90,7 +106,16 @@ pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[Stri
     let mut content: BTreeMap<String, Vec<u8>> = BTreeMap::new();
     for f in &files {
         let src = entry.join(f);
-        let bytes = stamp(f, id, fsio::read(&src)?, overrides, &src)?;
+        let mut bytes = stamp(f, id, fsio::read(&src)?, overrides, &src)?;
+        if let Some((line, block)) = &stamp_of {
+            if f.ends_with(".svg") {
+                bytes = crate::report::measured::stamp_svg(bytes, line);
+            } else if f == "result.json" {
+                let mut v: Value = serde_json::from_slice(&bytes).map_err(|e| fsio::at("cannot parse", &src, io::Error::other(e)))?;
+                v["measured"] = block.clone();
+                bytes = serde_json::to_vec_pretty(&v).map_err(|e| fsio::at("cannot serialize", &src, io::Error::other(e)))?;
+            }
+        }
         content.insert(published_name(id, f), bytes);
     }
     let mut h = blake3::Hasher::new();

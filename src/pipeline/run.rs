@@ -483,11 +483,29 @@ fn publish_all(p: &Pipeline, proj: &Project, summary: &RunSummary, mp: &MultiPro
             say(mp, format!("  removed the reports of `{gone}` (no longer in {})", p.path.display()));
         }
     }
+    // The profile's measured errors for every figure's footer and JSON: the `wp-summary`
+    // stage of this run (its cache entry, found through the DAG's key), else its
+    // published table from an earlier run of this profile.
+    let errors = {
+        let done = |r: &&StageReport| matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. });
+        let from_run = p
+            .stages
+            .iter()
+            .filter(|s| s.kind == "wp-summary")
+            .find_map(|s| summary.stages.iter().filter(done).find(|r| r.id == s.id))
+            .and_then(|r| std::fs::read_to_string(proj.cache.entry_dir(&r.key).join("profile.csv")).ok());
+        let text = from_run.or_else(|| {
+            let id = p.stages.iter().find(|s| s.kind == "wp-summary")?.id.clone();
+            std::fs::read_to_string(dir.join(format!("{id}-profile.csv"))).ok()
+        });
+        text.map(|t| crate::report::measured::parse_profile_csv(&t)).unwrap_or_default()
+    };
+    let measured = publish::Measured { profile: &p.profile, errors: &errors };
     for r in &summary.stages {
         match r.outcome {
             Outcome::Cached | Outcome::Ran { .. } => {
                 let overrides = p.get(&r.id).map(|s| s.overrides.as_slice()).unwrap_or(&[]);
-                publish::publish(&proj.cache, &dir, &r.id, &r.key, overrides)?;
+                publish::publish(&proj.cache, &dir, &r.id, &r.key, overrides, Some(&measured))?;
             }
             Outcome::Failed(_) | Outcome::Skipped(_) => {
                 if !publish::unpublish(&dir, &r.id)?.is_empty() {

@@ -66,58 +66,13 @@ fn chapter_place(id: &str, pos: usize) -> (usize, (u64, u64, String, usize)) {
 
 const SECTIONS: [&str; 4] = ["4.2 Granular column collapse", "4.3 Role of initial grain properties", "4.4 Slopes subjected to horizontal excitation", "Numerics: work-precision"];
 
-/// Methods a stage's numbers come from (for its measured error): the kind's engine, else
-/// the engines of its inputs (the `wp` input first).
-fn methods(rec: &Value) -> Vec<&'static str> {
-    let engine = |s: &str| -> Option<&'static str> {
-        if s.starts_with("dem") || s.contains("-dem") || s.starts_with("calib") { Some("dem") } else if s.contains("mpm") { Some("mpm") } else if s.starts_with("cd") || s.contains("-cd") { Some("cd") } else { None }
-    };
-    let kind = rec.get("kind").and_then(|v| v.as_str()).unwrap_or("");
-    if kind == "wp-summary" {
-        return vec![];
-    }
-    if let Some(m) = engine(kind) {
-        return vec![m];
-    }
-    let inputs: Vec<(String, String)> = rec.get("inputs").and_then(|v| v.as_array()).map(|a| a.iter().map(|i| (i["role"].as_str().unwrap_or("").to_string(), i["id"].as_str().unwrap_or("").to_string())).collect()).unwrap_or_default();
-    if let Some((_, id)) = inputs.iter().find(|(r, _)| r == "wp") {
-        return engine(id).into_iter().collect();
-    }
-    let mut out: Vec<&'static str> = Vec::new();
-    for (_, id) in &inputs {
-        if let Some(m) = engine(id) {
-            if !out.contains(&m) {
-                out.push(m);
-            }
-        }
-    }
-    out
-}
+use super::measured::{methods, pct};
 
 /// The profile's measured error and cost per method, from the `wp-summary` stage's
-/// published outputs: method → (setting, error, standard error, wall time of one run).
+/// published `profile` table: method → (setting, error, standard error, wall time of one run).
 fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64, f64, f64)> {
-    let mut out = std::collections::BTreeMap::new();
-    let Ok(text) = std::fs::read_to_string(dir.join("wp-summary-profile.csv")) else { return out };
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-    let col = |k: &str| head.iter().position(|h| *h == k);
-    let (Some(m), Some(s), Some(e), Some(se), Some(w)) = (col("method"), col("setting"), col("rel_error"), col("rel_error_se"), col("wall_s")) else { return out };
-    for l in lines {
-        let f: Vec<&str> = l.split(',').collect();
-        let x = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
-        if let (Some(mm), Some(ss)) = (f.get(m), f.get(s)) {
-            out.insert(mm.to_string(), (ss.to_string(), x(e), x(se), x(w)));
-        }
-    }
-    out
-}
-
-fn pct(e: f64, se: f64) -> String {
-    if !e.is_finite() {
-        return "—".into();
-    }
-    if se.is_finite() { format!("{:.1} ± {:.1} %", 100.0 * e, 100.0 * se) } else { format!("{:.1} %", 100.0 * e) }
+    let text = std::fs::read_to_string(dir.join("wp-summary-profile.csv")).unwrap_or_default();
+    super::measured::parse_profile_csv(&text).into_iter().map(|(m, e)| (m, (e.setting, e.error, e.error_se, e.wall_s))).collect()
 }
 
 /// Rebuild the index of one profile's report directory listing exactly the stages `ids`

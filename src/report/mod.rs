@@ -1,4 +1,5 @@
 //! Reports: SVG charts and the HTML index.
 pub mod html;
+pub mod measured;
 pub mod plot;
 pub mod snapshot;

@@ -219,6 +219,33 @@ pub struct WpVariant {
     pub dt: f64,
     /// NLGS tolerance (‖ΔP‖/‖P‖); the residual tolerance is 10× it.
     pub tolerance: f64,
+    /// NLGS iteration cap of this variant (default: the solver's `max_iterations`): a step
+    /// that reaches it ends unconverged, counted in `unconverged_steps`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<u32>,
+}
+
+/// Perturbed starts per variant (the pile is chaotic: every variant runs the same starts,
+/// the errors are differences of ensemble means with their standard error).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct WpEnsemble {
+    /// Starts per variant; member 0 is the settled deposit itself (1 = no ensemble).
+    pub members: usize,
+    /// Jitter of every grain's position in the settled deposit, uniform in ±this [m].
+    pub perturbation_m: f64,
+    /// ChaCha8 seed of the jitter.
+    pub seed: u64,
+}
+
+impl Default for WpEnsemble {
+    fn default() -> Self {
+        WpEnsemble { members: 1, perturbation_m: 1e-8, seed: 7 }
+    }
+}
+
+fn single(e: &WpEnsemble) -> bool {
+    *e == WpEnsemble::default()
 }
 
 /// Parameters of a `cd-work-precision` stage.
@@ -237,11 +264,14 @@ pub struct WpParams {
     pub run_time: f64,
     /// Variants; the first is the reference (finest step, tightest tolerance).
     pub variants: Vec<WpVariant>,
+    /// Perturbed starts per variant.
+    #[serde(skip_serializing_if = "single")]
+    pub ensemble: WpEnsemble,
 }
 
 impl Default for WpParams {
     fn default() -> Self {
-        WpParams { cd: CdParams::default(), deposit: crate::cd::pile::DropSpec { ncol: 20, nrow: 10, scale: 2.455e-3, seed: 1 }, settle_time: 0.3, v0: 0.5, run_time: 0.4, variants: vec![] }
+        WpParams { cd: CdParams::default(), deposit: crate::cd::pile::DropSpec { ncol: 20, nrow: 10, scale: 2.455e-3, seed: 1 }, settle_time: 0.3, v0: 0.5, run_time: 0.4, variants: vec![], ensemble: WpEnsemble::default() }
     }
 }
 
@@ -253,6 +283,9 @@ impl Validate for WpParams {
         for (k, v) in self.variants.iter().enumerate() {
             c.positive(&format!("variants[{k}].dt"), v.dt);
             c.in_open(&format!("variants[{k}].tolerance"), v.tolerance, 0.0, 0.1);
+            if let Some(m) = v.max_iterations {
+                c.check(m >= 1, &format!("variants[{k}].max_iterations"), m, "≥ 1");
+            }
             if let (true, Err(m)) = (v.dt > 0.0 && self.v0 > 0.0 && self.deposit.scale > 0.0, self.cd.step_preflight(v.dt, 0.8 * self.deposit.scale, self.v0)) {
                 c.fail(&format!("variants[{k}].dt"), v.dt, &format!("a step that cannot miss a contact — {m}"));
             }
@@ -262,60 +295,114 @@ impl Validate for WpParams {
         c.positive("settle_time", self.settle_time);
         c.positive("v0", self.v0);
         c.positive("run_time", self.run_time);
+        c.check((1..=16).contains(&self.ensemble.members), "ensemble.members", self.ensemble.members, "an integer in [1, 16]");
+        c.in_closed("ensemble.perturbation_m", self.ensemble.perturbation_m, 0.0, 1e-4);
         c.issues
     }
 }
 
+/// Mean and sample standard deviation (NaN for one value).
+fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let sd = if v.len() > 1 { (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { f64::NAN };
+    (m, sd)
+}
+
 fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
-    use crate::cd::pile::{impact, settled_deposit};
+    use crate::cd::pile::{ImpactResult, impact, settled_deposit};
+    use rand::{RngExt, SeedableRng};
+    use rayon::prelude::*;
     let p: WpParams = decode(ctx)?;
     let (state, walls) = settled_deposit(&p.deposit, &p.cd, p.settle_time)?;
     let width = p.deposit.width();
-    let mut rows = Vec::new();
+    let members = p.ensemble.members.max(1);
+    let starts: Vec<_> = (0..members)
+        .map(|k| {
+            let mut s = state.clone();
+            if k > 0 {
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(p.ensemble.seed.wrapping_mul(0x9E37_79B9).wrapping_add(k as u64));
+                for i in 0..s.len() {
+                    s.x[i] += p.ensemble.perturbation_m * (2.0 * rng.random::<f64>() - 1.0);
+                    s.y[i] += p.ensemble.perturbation_m * (2.0 * rng.random::<f64>() - 1.0);
+                }
+            }
+            s
+        })
+        .collect();
+    // rows[variant][member]
+    let mut rows: Vec<Vec<ImpactResult>> = Vec::new();
     for (k, v) in p.variants.iter().enumerate() {
         ctx.set_progress(k as f64 / p.variants.len() as f64);
-        let cd = CdParams { dt: v.dt, tolerance: v.tolerance, residual_tolerance: (10.0 * v.tolerance).min(0.5), ..p.cd.clone() };
-        rows.push(impact(&state, &walls, width, &cd, p.v0, p.run_time)?);
+        let cd = CdParams { dt: v.dt, tolerance: v.tolerance, residual_tolerance: (10.0 * v.tolerance).min(0.5), max_iterations: v.max_iterations.unwrap_or(p.cd.max_iterations), ..p.cd.clone() };
+        let runs = starts.par_iter().map(|s| impact(s, &walls, width, &cd, p.v0, p.run_time)).collect::<Vec<_>>().into_iter().collect::<Result<Vec<_>, _>>()?;
+        rows.push(runs);
     }
     ctx.set_progress(1.0);
-    let r0 = &rows[0];
-    let err_l: Vec<f64> = rows.iter().map(|r| ((r.runout - r0.runout) / r0.runout).abs()).collect();
-    let err_d: Vec<f64> = rows.iter().map(|r| ((r.dissipated - r0.dissipated) / r0.dissipated).abs()).collect();
-    let err_c: Vec<f64> = rows.iter().map(|r| ((r.com_shift - r0.com_shift) / r0.com_shift).abs()).collect();
+    let nf = members as f64;
+    // per variant: (mean, sd) of a quantity; error of the means vs the reference ± s.e.
+    let stat = |f: &dyn Fn(&ImpactResult) -> f64| -> Vec<(f64, f64)> { rows.iter().map(|rs| mean_sd(&rs.iter().map(f).collect::<Vec<_>>())).collect() };
+    let rel = |st: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) {
+        let (m0, s0) = st[0];
+        (st.iter().map(|(m, _)| ((m - m0) / m0).abs()).collect(), st.iter().map(|(_, s)| (s.powi(2) / nf + s0.powi(2) / nf).sqrt() / m0.abs()).collect())
+    };
+    let (st_l, st_c, st_d) = (stat(&|r| r.runout), stat(&|r| r.com_shift), stat(&|r| r.dissipated));
+    let ((err_l, se_l), (err_c, se_c), (err_d, se_d)) = (rel(&st_l), rel(&st_c), rel(&st_d));
+    let mean_of = |f: &dyn Fn(&ImpactResult) -> f64| -> Vec<f64> { rows.iter().map(|rs| rs.iter().map(f).sum::<f64>() / nf).collect() };
+    let wall: Vec<f64> = mean_of(&|r| r.wall_s);
     let mut out = Output::default();
     out.table("table", frame(vec![
         ("dt_s", p.variants.iter().map(|v| v.dt).collect()),
         ("tolerance", p.variants.iter().map(|v| v.tolerance).collect()),
-        ("runout_norm", rows.iter().map(|r| r.runout).collect()),
+        ("max_iterations", p.variants.iter().map(|v| v.max_iterations.unwrap_or(p.cd.max_iterations) as f64).collect()),
+        ("members", vec![nf; rows.len()]),
+        ("runout_norm", st_l.iter().map(|x| x.0).collect()),
+        ("runout_norm_std", st_l.iter().map(|x| x.1).collect()),
         ("runout_rel_error", err_l.clone()),
-        ("com_shift_norm", rows.iter().map(|r| r.com_shift).collect()),
+        ("runout_rel_error_se", se_l.clone()),
+        ("com_shift_norm", st_c.iter().map(|x| x.0).collect()),
+        ("com_shift_norm_std", st_c.iter().map(|x| x.1).collect()),
         ("com_shift_rel_error", err_c.clone()),
-        ("dissipated_j_m", rows.iter().map(|r| r.dissipated).collect()),
+        ("com_shift_rel_error_se", se_c.clone()),
+        ("dissipated_j_m", st_d.iter().map(|x| x.0).collect()),
+        ("dissipated_j_m_std", st_d.iter().map(|x| x.1).collect()),
         ("dissipated_rel_error", err_d.clone()),
-        ("ek_final_over_ek0", rows.iter().map(|r| r.ek_final / r.ek0).collect()),
-        ("mean_iterations", rows.iter().map(|r| r.stats.iterations as f64 / r.stats.steps.max(1) as f64).collect()),
-        ("unconverged_steps", rows.iter().map(|r| r.stats.unconverged as f64).collect()),
-        ("max_penetration_d", rows.iter().map(|r| r.stats.max_penetration).collect()),
+        ("dissipated_rel_error_se", se_d.clone()),
+        ("ek_final_over_ek0", mean_of(&|r| r.ek_final / r.ek0)),
+        ("mean_iterations", mean_of(&|r| r.stats.iterations as f64 / r.stats.steps.max(1) as f64)),
+        ("unconverged_steps", mean_of(&|r| r.stats.unconverged as f64)),
+        ("max_penetration_d", rows.iter().map(|rs| rs.iter().map(|r| r.stats.max_penetration).fold(0.0, f64::max)).collect()),
     ])?);
-    out.table("timing", frame(vec![("wall_s", rows.iter().map(|r| r.wall_s).collect())])?);
-    out.scalar("reference_runout_norm", r0.runout).scalar("reference_com_shift_norm", r0.com_shift).scalar("reference_dissipated_j_m", r0.dissipated).scalar("grains", state.len() as f64);
-    out.note(format!("Run-out (95th-percentile front) is reported but not plotted: frictional disks roll freely on the flat floor, so the front is a few rolling grains and moves by tens of % between variants with no trend (chaotic); the centre-of-mass travel and the dissipated energy are the converging measures. Reference: h = {:.2e} s, tolerance {:.0e} → (L_f − L_0)/L_0 = {:.4}, D = {:.4e} J/m. {} grains, gradient excitation v0 = {} m/s at the base.", p.variants[0].dt, p.variants[0].tolerance, r0.runout, r0.dissipated, state.len(), p.v0));
-    let mut tols: Vec<f64> = p.variants.iter().skip(1).map(|v| v.tolerance).collect();
+    out.table("timing", frame(vec![("wall_s", wall.clone())])?);
+    out.scalar("reference_runout_norm", st_l[0].0).scalar("reference_com_shift_norm", st_c[0].0).scalar("reference_dissipated_j_m", st_d[0].0).scalar("grains", state.len() as f64).scalar("members", nf);
+    let v0 = &p.variants[0];
+    out.note(format!(
+        "Run-out (95th-percentile front) is reported but not plotted: frictional disks roll freely on the flat floor, so the front is a few rolling grains and moves by tens of % between variants with no trend (chaotic); the centre-of-mass travel and the dissipated energy are the converging measures. Reference: h = {:.2e} s, tolerance {:.0e}{} → (L_f − L_0)/L_0 = {:.4}, D = {:.4e} J/m. {} grains, gradient excitation v0 = {} m/s at the base, {} s simulated.{}",
+        v0.dt, v0.tolerance, v0.max_iterations.map(|m| format!(", ≤ {m} iterations")).unwrap_or_default(), st_l[0].0, st_d[0].0, state.len(), p.v0, p.run_time,
+        if members > 1 { format!(" Every variant runs the same {members} starts (member 0 the settled deposit, the others with every grain jittered by ≤ {:.0e} m, ChaCha8 seed {}): errors are differences of ensemble means ± their standard error.", p.ensemble.perturbation_m, p.ensemble.seed) } else { String::new() }
+    ));
+    let err_bars = |idx: &[usize], se: &[f64]| -> Vec<f64> { idx.iter().map(|&i| if se[i].is_finite() { se[i] } else { 0.0 }).collect() };
+    let mut series = Vec::new();
+    let default_cap = p.cd.max_iterations;
+    let mut tols: Vec<f64> = p.variants.iter().skip(1).filter(|v| v.max_iterations.is_none()).map(|v| v.tolerance).collect();
     tols.sort_by(|a, b| b.total_cmp(a));
     tols.dedup();
-    let series = tols
-        .iter()
-        .enumerate()
-        .map(|(k, t)| {
-            let pts = p.variants.iter().zip(rows.iter()).zip(err_c.iter()).skip(1).filter(|((v, _), _)| v.tolerance == *t).map(|((_, r), e)| (r.wall_s, e.max(1e-6))).collect();
-            Series::new(format!("centre-of-mass travel, tolerance {t:.0e} (points: h)"), Style::LinePoints, pts, k)
-        })
-        .collect::<Vec<_>>();
-    let mut series = series;
-    series.push(Series::new("dissipated energy, all variants", Style::Points, rows.iter().zip(err_d.iter()).skip(1).map(|(r, e)| (r.wall_s, e.max(1e-6))).collect(), 7));
+    for (k, t) in tols.iter().enumerate() {
+        let idx: Vec<usize> = (1..rows.len()).filter(|&i| p.variants[i].tolerance == *t && p.variants[i].max_iterations.is_none()).collect();
+        let s = Series::new(format!("centre-of-mass travel, tolerance {t:.0e} (points: h)"), Style::LinePoints, idx.iter().map(|&i| (wall[i], err_c[i].max(1e-6))).collect(), k);
+        series.push(if members > 1 { s.with_errors(err_bars(&idx, &se_c)) } else { s });
+    }
+    let capped: Vec<usize> = (1..rows.len()).filter(|&i| p.variants[i].max_iterations.is_some_and(|m| m != default_cap)).collect();
+    if !capped.is_empty() {
+        let s = Series::new("centre-of-mass travel, NLGS iteration cap (points: cap)".to_string(), Style::LinePoints, capped.iter().map(|&i| (wall[i], err_c[i].max(1e-6))).collect(), 5);
+        series.push(if members > 1 { s.with_errors(err_bars(&capped, &se_c)) } else { s });
+    }
+    let all: Vec<usize> = (1..rows.len()).collect();
+    let s = Series::new("dissipated energy, all variants", Style::Points, all.iter().map(|&i| (wall[i], err_d[i].max(1e-6))).collect(), 7);
+    series.push(if members > 1 { s.with_errors(err_bars(&all, &se_d)) } else { s });
     let chart = Chart {
         y_label: "relative error vs the reference".into(),
-        ..Chart::work_precision(ctx.caption.clone().unwrap_or_else(|| "Work-precision of CD".into()), footer(&ctx.profile, &format!("reference h = {:.1e} s, tol {:.0e}", p.variants[0].dt, p.variants[0].tolerance)), series)
+        ..Chart::work_precision(ctx.caption.clone().unwrap_or_else(|| "Work-precision of CD".into()), footer(&ctx.profile, &format!("reference h = {:.1e} s, tol {:.0e}{}", v0.dt, v0.tolerance, if members > 1 { format!(", {members} starts per variant, ± s.e.") } else { String::new() })), series)
     };
     out.figure("figure", chart.to_svg()?);
     Ok(out)
@@ -324,7 +411,7 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `cd-work-precision`.
 pub const WP_KIND: Kind = Kind {
     name: "cd-work-precision",
-    version: 2,
+    version: 3,
     about: "work-precision of CD: pile impact run-out and dissipated energy against time step and NLGS tolerance, vs wall time",
     params: typed::<WpParams>,
     run: run_wp,

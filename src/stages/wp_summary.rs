@@ -82,12 +82,21 @@ fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
         let (k, f, q, sd, m) = (col_f64(&t, "stiffness_factor")?, col_f64(&t, "dt_fraction")?, col_f64(&t, "runout_norm_mean")?, col_f64(&t, "runout_norm_std")?, col_f64(&t, "members")?);
         let (e, se) = (col_f64(&t, "runout_rel_error")?, col_f64(&t, "runout_rel_error_se")?);
         let settle = col_f64(&timing, "settle_wall_s").unwrap_or_else(|_| vec![0.0; wall.len()]);
+        let grains = col_f64(&t, "grains").ok();
         for i in 0..k.len() {
+            let mut setting = format!("k{}-dt{}", g(k[i]), g(f[i]));
+            let mut knobs = vec![("stiffness_factor", k[i]), ("dt_fraction", f[i])];
+            if let Some(n) = &grains {
+                if n[i] != n[0] {
+                    setting.push_str(&format!("-n{}", g(n[i])));
+                }
+                knobs.push(("grains", n[i]));
+            }
             out.push(Row {
                 method: "dem",
                 stage: inp.id.clone(),
-                setting: format!("k{}-dt{}", g(k[i]), g(f[i])),
-                knobs: vec![("stiffness_factor", k[i]), ("dt_fraction", f[i])],
+                setting,
+                knobs,
                 quantity: "runout",
                 value: q[i],
                 value_se: sd[i] / m[i].max(1.0).sqrt(),
@@ -99,43 +108,68 @@ fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
             });
         }
     } else if has(&t, "ppc") {
-        // MPM: single deterministic runs; the reference run is not in the table
+        // MPM: deterministic runs, ensembles of perturbed starts where the stage ran them;
+        // the reference run is not in the table
         let (n, h, c, q, e) = (col_f64(&t, "ppc")?, col_f64(&t, "cell_size_m")?, col_f64(&t, "courant")?, col_f64(&t, "runout_norm")?, col_f64(&t, "runout_rel_error")?);
+        let opt = |c: &str, v: f64| col_f64(&t, c).unwrap_or_else(|_| vec![v; n.len()]);
+        let (lin, musl, m, sd, se) = (opt("shape_linear", 0.0), opt("scheme_musl", 0.0), opt("members", 1.0), opt("runout_norm_std", f64::NAN), opt("runout_rel_error_se", f64::NAN));
         for i in 0..n.len() {
+            let mut setting = format!("ppc{}-h{}mm-C{}", g(n[i]), g(1e3 * h[i]), g(c[i]));
+            let mut knobs = vec![("ppc", n[i]), ("cell_size_m", h[i]), ("courant", c[i])];
+            if lin[i] != 0.0 {
+                setting.push_str("-linear");
+            }
+            if musl[i] != 0.0 {
+                setting.push_str("-musl");
+            }
+            knobs.push(("shape_linear", lin[i]));
+            knobs.push(("scheme_musl", musl[i]));
             out.push(Row {
                 method: "mpm",
                 stage: inp.id.clone(),
-                setting: format!("ppc{}-h{}mm-C{}", g(n[i]), g(1e3 * h[i]), g(c[i])),
-                knobs: vec![("ppc", n[i]), ("cell_size_m", h[i]), ("courant", c[i])],
+                setting,
+                knobs,
                 quantity: "runout",
                 value: q[i],
-                value_se: f64::NAN,
+                value_se: sd[i] / m[i].max(1.0).sqrt(),
                 error: e[i],
-                error_se: f64::NAN,
+                error_se: se[i],
                 wall_s: wall[i],
                 reference: false,
-                members: 1.0,
+                members: m[i],
             });
         }
     } else if has(&t, "tolerance") {
-        // CD: single deterministic runs, the first is the reference
+        // CD: the first variant is the reference; ensembles of perturbed starts where the
+        // stage ran them
         let (dt, tol) = (col_f64(&t, "dt_s")?, col_f64(&t, "tolerance")?);
-        for (quantity, qc, ec) in [("runout", "runout_norm", "runout_rel_error"), ("dissipated energy", "dissipated_j_m", "dissipated_rel_error")] {
+        let opt = |c: &str, v: f64| col_f64(&t, c).unwrap_or_else(|_| vec![v; dt.len()]);
+        let (cap, m) = (opt("max_iterations", f64::NAN), opt("members", 1.0));
+        for (quantity, qc, ec) in [("runout", "runout_norm", "runout_rel_error"), ("centre-of-mass travel", "com_shift_norm", "com_shift_rel_error"), ("dissipated energy", "dissipated_j_m", "dissipated_rel_error")] {
             let (q, e) = (col_f64(&t, qc)?, col_f64(&t, ec)?);
+            let (sd, se) = (opt(&format!("{qc}_std"), f64::NAN), opt(&format!("{ec}_se"), f64::NAN));
             for i in 0..dt.len() {
+                let mut setting = format!("dt{}-tol{}", g(dt[i]), g(tol[i]));
+                let mut knobs = vec![("dt_s", dt[i]), ("tolerance", tol[i])];
+                if cap[i].is_finite() {
+                    if cap[i] != cap[0] {
+                        setting.push_str(&format!("-it{}", g(cap[i])));
+                    }
+                    knobs.push(("max_iterations", cap[i]));
+                }
                 out.push(Row {
                     method: "cd",
                     stage: inp.id.clone(),
-                    setting: format!("dt{}-tol{}", g(dt[i]), g(tol[i])),
-                    knobs: vec![("dt_s", dt[i]), ("tolerance", tol[i])],
+                    setting,
+                    knobs,
                     quantity,
                     value: q[i],
-                    value_se: f64::NAN,
+                    value_se: sd[i] / m[i].max(1.0).sqrt(),
                     error: e[i],
-                    error_se: f64::NAN,
+                    error_se: se[i],
                     wall_s: wall[i],
                     reference: i == 0,
-                    members: 1.0,
+                    members: m[i],
                 });
             }
         }
@@ -173,7 +207,7 @@ fn orders(rows: &[Row]) -> Vec<Order> {
         let ki = g_rows[0].knobs.iter().position(|(n, _)| *n == knob).unwrap_or(0);
         // finest first: the knob value that refines (smaller step/cell/tolerance; more PPC;
         // stiffer contacts)
-        let finer_is_larger = matches!(knob, "ppc" | "stiffness_factor");
+        let finer_is_larger = matches!(knob, "ppc" | "stiffness_factor" | "max_iterations" | "grains");
         g_rows.sort_by(|a, b| {
             let (x, y) = (a.knobs[ki].1, b.knobs[ki].1);
             if finer_is_larger { y.total_cmp(&x) } else { x.total_cmp(&y) }
@@ -300,9 +334,10 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         ..Chart::log_log("Work-precision atlas: relative error against wall time of one run".into(), footer(&ctx.profile, &note), "wall time of one run [s]", "|Q − Q_ref| / Q_ref", series)
     };
     out.figure("figure", chart.to_svg()?);
+    let members = |m: &str| rows.iter().filter(|r| r.method == m).map(|r| r.members).fold(0.0, f64::max);
     out.note(format!(
-        "Error = |Q − Q_ref|/Q_ref against each stage's finest setting; ± standard error where the stage ran an ensemble (DEM: {} members from perturbed starts); MPM and CD rows are single deterministic runs (no spread measured). Wall time: one run at the setting (DEM: one member's collapse plus its settling). Observed orders: {n_sound} of {} knob triples sound (table `orders`, with the reason for each rejection).",
-        rows.iter().filter(|r| r.method == "dem").map(|r| r.members).fold(0.0, f64::max),
+        "Error = |Q − Q_ref|/Q_ref against each stage's finest setting, Q an ensemble mean: ± standard error of the difference of means (members from perturbed starts: DEM {}, MPM {}, CD {}; 1 = a single deterministic run, no spread measured). Wall time: one run at the setting (DEM: one member's collapse plus its settling). Observed orders: {n_sound} of {} knob triples sound (table `orders`, with the reason for each rejection).",
+        members("dem"), members("mpm"), members("cd"),
         ord.len()
     ));
     Ok(out)
@@ -311,7 +346,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `wp-summary`.
 pub const KIND: Kind = Kind {
     name: "wp-summary",
-    version: 4,
+    version: 5,
     about: "work-precision atlas: every work-precision stage's error vs wall time in one table and figure, observed orders, the profile's error and cost",
     params: typed::<SummaryParams>,
     run,
