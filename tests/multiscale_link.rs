@@ -22,6 +22,8 @@ fn is_view(id: &str) -> bool {
     id.starts_with("fig4-") || id.starts_with("fit-") || id.ends_with("-claims") || id == "wp-summary"
         // analyses of the column runs' tables (issue 9): statistics over the sweeps
         || id == "inertial-column" || id == "front-jumps"
+        // fig 4.45's energy axis (issue 11): column peak E_k and pile E_0 side by side
+        || id == "energy-runout"
 }
 
 #[test]
