@@ -78,28 +78,7 @@ fn excitation_carries_e0_exactly_for_both_profiles() {
 fn a_settled_pile_does_not_run_out_without_excitation() {
     // 40 grains poured and relaxed, then "excited" with a vanishing energy: the front must
     // not move (a pile that creeps would fail the chapter's preparation criterion).
-    let radii: Vec<f64> = granrepro::dem::prep::diameters_uniform_by_area(40, 1.964e-3, 2.946e-3, 3).iter().map(|d| 0.5 * d).collect();
-    let mut p = DemParams::default();
-    p.density = 2600.0;
-    p.grain.kn = 1e6;
-    p.grain.kt = 1e6;
-    p.wall.kn = 1e6;
-    p.wall.kt = 1e6;
-    p.grain.friction = 0.4;
-    p.wall.friction = 0.4;
-    p.rolling.kr = 1.5;
-    p.rolling.cr = 7.5e-4;
-    p.rolling.mu_r = 0.15;
-    p.dt = 9.5e-6;
-    p.ledger = false;
-    let mut pp = granrepro::dem::pile::PileParams::default();
-    pp.deposition.width = 0.012;
-    pp.deposition.drop_height = 1.0;
-    pp.deposition.rows_per_layer = 1000;
-    pp.deposition.softening = 1.0;
-    pp.deposition.settle_ratio = 1e-4;
-    pp.max_time = 2.0;
-    let pile = granrepro::dem::pile::prepare_pile(&radii, &p, &pp).unwrap();
+    let (pile, p) = small_pile();
     assert!(pile.settled, "not settled: E_k/E_p = {}", pile.ke_over_ep);
     let stop = StopRule { t_min: 10.0, t_max: 20.0, ..Default::default() };
     let r = granrepro::dem::pile::run_pile(&pile.state, &p, Profile::Gradient, 1e-12, &stop).unwrap();
@@ -131,8 +110,8 @@ fn an_unknown_comparison_is_refused_with_the_allowed_ones() {
     }
 }
 
-/// A small settled pile for the frame tests.
-fn small_pile() -> (granrepro::dem::State, DemParams) {
+/// A small pile (40 grains poured and relaxed) and its contact law.
+fn small_pile() -> (granrepro::dem::pile::Pile, DemParams) {
     let radii: Vec<f64> = granrepro::dem::prep::diameters_uniform_by_area(40, 1.964e-3, 2.946e-3, 3).iter().map(|d| 0.5 * d).collect();
     let mut p = DemParams::default();
     p.density = 2600.0;
@@ -154,14 +133,14 @@ fn small_pile() -> (granrepro::dem::State, DemParams) {
     pp.deposition.softening = 1.0;
     pp.deposition.settle_ratio = 1e-4;
     pp.max_time = 2.0;
-    let pile = granrepro::dem::pile::prepare_pile(&radii, &p, &pp).unwrap();
-    (pile.state, p)
+    (granrepro::dem::pile::prepare_pile(&radii, &p, &pp).unwrap(), p)
 }
 
 #[test]
 fn frames_do_not_change_the_run_and_carry_the_input_energy() {
     use granrepro::analysis::pile::FrameTimes;
-    let (s, p) = small_pile();
+    let (pile, p) = small_pile();
+    let s = pile.state;
     let stop = StopRule { t_min: 10.0, t_max: 12.0, ..Default::default() };
     let g = p.gravity;
     let tu = (2.455e-3 / g).sqrt();
