@@ -114,6 +114,11 @@ pub struct SnapPanel {
     /// Draw background-grid lines every `grid_m` metres (MPM cells, fig4-24a).
     #[serde(default)]
     pub grid_m: Option<f64>,
+    /// One panel per input of the role (a matrix: figs 4.27/4.28, one per PPC), in input
+    /// order, each titled `title` followed by the value of this parameter path of its
+    /// stage (e.g. `mpm.ppc`). Absent: the role's first input.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub each: Option<String>,
 }
 
 /// The time column of the upstream `snapshots` tables and its unit in titles.
@@ -224,8 +229,28 @@ impl SnapParams {
     }
 }
 
-fn rows(ctx: &StageCtx, p: &SnapParams, panel: &SnapPanel) -> anyhow::Result<Rows> {
-    let inp = ctx.inputs_of(&panel.from).first().ok_or_else(|| anyhow!("stage `{}`: panel `{}` reads role `{}`, which names no input", ctx.id, panel.title, panel.from))?;
+/// The declared panels with `each` expanded: (panel, index of its input in the role).
+fn expand(ctx: &StageCtx, p: &SnapParams) -> anyhow::Result<Vec<(SnapPanel, usize)>> {
+    let mut out = Vec::new();
+    for panel in &p.panels {
+        let Some(path) = &panel.each else {
+            out.push((panel.clone(), 0));
+            continue;
+        };
+        let inputs = ctx.inputs_of(&panel.from);
+        anyhow::ensure!(!inputs.is_empty(), "stage `{}`: panel `{}` reads role `{}`, which names no input", ctx.id, panel.title, panel.from);
+        for (i, inp) in inputs.iter().enumerate() {
+            let v = path.split('.').try_fold(&inp.params, |v, k| v.get(k)).ok_or_else(|| anyhow!("stage `{}`: panels `each: {path}`: input `{}` has no parameter `{path}`", ctx.id, inp.id))?;
+            let shown = v.as_f64().map(|x| format!("{x}")).unwrap_or_else(|| v.to_string());
+            out.push((SnapPanel { title: format!("{} {shown}", panel.title), each: None, ..panel.clone() }, i));
+        }
+    }
+    anyhow::ensure!(out.len() <= 12, "stage `{}`: {} panels after expanding `each` (at most 12)", ctx.id, out.len());
+    Ok(out)
+}
+
+fn rows(ctx: &StageCtx, p: &SnapParams, panel: &SnapPanel, input: usize) -> anyhow::Result<Rows> {
+    let inp = ctx.inputs_of(&panel.from).get(input).ok_or_else(|| anyhow!("stage `{}`: panel `{}` reads role `{}`, which names no input", ctx.id, panel.title, panel.from))?;
     let df = inp.table(&panel.table)?;
     let k = col_f64(&df, "k")?;
     let keep: Vec<usize> = (0..k.len()).filter(|&i| k[i] == panel.k as f64).collect();
@@ -266,8 +291,10 @@ fn tile(svgs: &[String], cols: usize, foot: &str) -> String {
 }
 
 fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
-    let p: SnapParams = decode(ctx)?;
-    let data: Vec<Rows> = p.panels.iter().map(|panel| rows(ctx, &p, panel)).collect::<anyhow::Result<_>>()?;
+    let mut p: SnapParams = decode(ctx)?;
+    let expanded = expand(ctx, &p)?;
+    let data: Vec<Rows> = expanded.iter().map(|(panel, i)| rows(ctx, &p, panel, *i)).collect::<anyhow::Result<_>>()?;
+    p.panels = expanded.into_iter().map(|(panel, _)| panel).collect();
     // One colour range per colouring column, shared by the panels it colours.
     let range_of = |col: &str| -> (f64, f64) {
         if col == p.colour
