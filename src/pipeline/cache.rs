@@ -219,10 +219,11 @@ impl Cache {
     /// (a concurrent run, or a forced re-run of the same work) it is kept and this copy
     /// is discarded — a complete entry is never removed or replaced by a writer.
     ///
-    /// `replace` (a forced re-run): a complete entry already under `key` is replaced by this
-    /// one rather than kept, and the names of its files whose bytes differ are returned —
-    /// with deterministic stages an empty list, so a forced re-run doubles as a
-    /// reproducibility check. Without `replace` the list is empty.
+    /// `replace` (a forced re-run): a complete entry already under `key` whose artifacts
+    /// differ from this run's is replaced by this one rather than kept, and the names of the
+    /// differing files are returned — with deterministic stages an empty list (the old
+    /// entry, byte-identical, stays), so a forced re-run doubles as a reproducibility check.
+    /// Without `replace` the list is empty.
     pub fn store(&self, key: &str, stage: &str, profile: &str, out: &mut Output, record: &Value, replace: bool) -> anyhow::Result<(PathBuf, Vec<String>)> {
         fsio::create_dir_all(&self.root)?;
         let tmp = tempfile::Builder::new()
@@ -265,7 +266,10 @@ impl Cache {
             _ => Vec::new(),
         };
         fsio::write_new(&tmp.path().join("manifest.json"), &serde_json::to_vec_pretty(&manifest)?)?;
-        if replace && self.entry_dir(key).exists() {
+        // Only an entry whose artifacts differ is replaced: removing an identical one would
+        // pull it from under a concurrent reader for nothing (tests/concurrency.rs races
+        // forced and unforced runs of deterministic stages on one cache).
+        if !changed.is_empty() {
             let _lock = fsio::lock(&self.lock_path(key))?;
             fsio::discard_dir(&self.entry_dir(key))?;
         }
