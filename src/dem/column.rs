@@ -282,6 +282,10 @@ pub struct WorkPrecisionRow {
     pub settle_wall_s: f64,
     /// Steps of one collapse (member 0).
     pub steps: u64,
+    /// Duration of each member: its stop time (the stop rule's instant) / τ_c [-].
+    pub duration: Vec<Real>,
+    /// Final potential energy of each member, E_p(end)/E_p(0) [-].
+    pub ep_final: Vec<Real>,
 }
 
 /// Run each variant as an ensemble (first variant = reference, the finest): the column is
@@ -314,6 +318,11 @@ pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, va
         rows.push(WorkPrecisionRow {
             variant: v.clone(), dt: p.dt, mean, spread, h_final_over_l0: hf, error, error_spread,
             wall_s: runs.iter().map(|r| r.wall_s).sum::<f64>() / n, settle_wall_s, steps: runs[0].steps, delta_l,
+            duration: runs.iter().map(|r| r.samples.last().map_or(0.0, |s| s.t) / r.tau_c).collect(),
+            ep_final: runs.iter().map(|r| match (r.samples.first(), r.samples.last()) {
+                (Some(a), Some(b)) if a.ep > 0.0 => b.ep / a.ep,
+                _ => Real::NAN,
+            }).collect(),
         });
     }
     Ok(rows)

@@ -10,6 +10,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
+use super::wp_summary::ensemble_error;
 use crate::dem::column::{CollapseParams, CollapseResult, Variant, collapse, work_precision};
 use crate::dem::compress::{CompressionParams, compression_test};
 use crate::dem::prep::{Column, DepositionParams, SettleReport, deposited_column, hex_column};
@@ -832,6 +833,14 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
         ("hf_over_l0", rows.iter().map(|r| r.h_final_over_l0).collect()),
         ("runout_rel_error", rows.iter().map(|r| r.error).collect()),
         ("runout_rel_error_se", rows.iter().map(|r| r.error_spread).collect()),
+        // the other quantities the column figures report: duration (fig 4.11's stop) and
+        // final energy (fig 4.13's E_p(end)/E_p(0)), same ensemble-mean measure
+        ("duration_tau_mean", rows.iter().map(|r| ensemble_error(&r.duration, &rows[0].duration).0).collect()),
+        ("duration_rel_error", rows.iter().map(|r| ensemble_error(&r.duration, &rows[0].duration).1).collect()),
+        ("duration_rel_error_se", rows.iter().map(|r| ensemble_error(&r.duration, &rows[0].duration).2).collect()),
+        ("ep_final_mean", rows.iter().map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).0).collect()),
+        ("ep_final_rel_error", rows.iter().map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).1).collect()),
+        ("ep_final_rel_error_se", rows.iter().map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).2).collect()),
     ])?);
     out.table("timing", frame(vec![
         ("variant", idx),
@@ -842,6 +851,9 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     for r in &rows {
         let key = r.variant.label.replace(|c: char| !c.is_ascii_alphanumeric(), "_");
         out.scalar(&format!("error_{key}"), r.error).scalar(&format!("error_se_{key}"), r.error_spread).scalar(&format!("runout_mean_{key}"), r.mean).scalar(&format!("runout_std_{key}"), r.spread);
+        let (_, de, dse) = ensemble_error(&r.duration, &rows[0].duration);
+        let (_, ee, ese) = ensemble_error(&r.ep_final, &rows[0].ep_final);
+        out.scalar(&format!("duration_error_{key}"), de).scalar(&format!("duration_error_se_{key}"), dse).scalar(&format!("ep_final_error_{key}"), ee).scalar(&format!("ep_final_error_se_{key}"), ese);
     }
     out.note(format!(
         "Each setting re-settled at its own stiffness and step, then {} perturbed starts (≤ {:.0e} m). Reference: {} (k factor {}, Δt = {:.2} t_c) → ΔL = {:.4} ± {:.4} (s.d.). Per setting, mean ± s.d. and one-collapse wall time: {}.",
@@ -876,7 +888,7 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-work-precision`.
 pub const WP_KIND: Kind = Kind {
     name: "dem-work-precision",
-    version: 3,
+    version: 4,
     about: "DEM column run-out error vs wall time over stiffness and time-step fraction (ensembles, re-settled per setting)",
     params: typed::<WpParams>,
     run: run_wp,

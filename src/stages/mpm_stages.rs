@@ -11,6 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
+use super::wp_summary::ensemble_error;
 use crate::mpm::column::{CollapseOptions, CollapseResult, ColumnSpec, collapse, fig4_04};
 use crate::mpm::{Model, MpmParams, StepRule};
 use crate::pipeline::context::{Claim, Output, StageCtx, frame};
@@ -608,6 +609,22 @@ fn perturbed_collapse(mp: &MpmParams, spec: ColumnSpec, opts: &CollapseOptions, 
     Ok(run_collapse(col, geo, mp, opts)?)
 }
 
+/// Duration of each run: its stop time / τ_c [-].
+fn duration(r: &WpRuns, g: f64) -> Vec<f64> {
+    r.runs.iter().map(|c| c.series.last().map_or(0.0, |s| s.t) / c.spec.tau_c(g)).collect()
+}
+
+/// Final potential energy of each run, E_p(end)/E_p(0) [-].
+fn ep_final(r: &WpRuns) -> Vec<f64> {
+    r.runs
+        .iter()
+        .map(|c| match (c.series.first(), c.series.last()) {
+            (Some(a), Some(b)) if a.e.potential > 0.0 => b.e.potential / a.e.potential,
+            _ => f64::NAN,
+        })
+        .collect()
+}
+
 fn setting_label(s: &WpSetting) -> String {
     let mut l = format!("{} PPC, h = {} mm, Courant {}", s.0, s.1 * 1e3, s.2);
     if s.3 != crate::mpm::params::Shape::Gimp {
@@ -681,6 +698,14 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
         ("runout_q99_norm", rows.iter().map(|r| r.1.q99_mean).collect()),
         ("runout_q99_rel_error", rows.iter().map(|r| ((r.1.q99_mean - reference.q99_mean) / reference.q99_mean).abs()).collect()),
         ("point_steps", rows.iter().map(|r| r.1.runs[0].points as f64 * r.1.runs[0].steps as f64).collect()),
+        // the other quantities the column figures report: duration (the stop rule's instant,
+        // fig 4.11) and final energy (E_p(end)/E_p(0), fig 4.13), same ensemble-mean measure
+        ("duration_tau_mean", rows.iter().map(|r| ensemble_error(&duration(&r.1, p.mpm.gravity), &duration(reference, p.mpm.gravity)).0).collect()),
+        ("duration_rel_error", rows.iter().map(|r| ensemble_error(&duration(&r.1, p.mpm.gravity), &duration(reference, p.mpm.gravity)).1).collect()),
+        ("duration_rel_error_se", rows.iter().map(|r| ensemble_error(&duration(&r.1, p.mpm.gravity), &duration(reference, p.mpm.gravity)).2).collect()),
+        ("ep_final_mean", rows.iter().map(|r| ensemble_error(&ep_final(&r.1), &ep_final(reference)).0).collect()),
+        ("ep_final_rel_error", rows.iter().map(|r| ensemble_error(&ep_final(&r.1), &ep_final(reference)).1).collect()),
+        ("ep_final_rel_error_se", rows.iter().map(|r| ensemble_error(&ep_final(&r.1), &ep_final(reference)).2).collect()),
     ])?);
     // Wall times are measurements, not results: a separate table so the main one stays
     // bit-identical across runs and thread counts.
@@ -706,6 +731,10 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
             out.scalar("base_config_runout_rel_error_se", err_se(&b.1));
         }
         out.scalar("base_config_runout_q99_rel_error", ((b.1.q99_mean - reference.q99_mean) / reference.q99_mean).abs());
+        let (_, de, dse) = ensemble_error(&duration(&b.1, p.mpm.gravity), &duration(reference, p.mpm.gravity));
+        let (_, ee, ese) = ensemble_error(&ep_final(&b.1), &ep_final(reference));
+        out.scalar("base_config_duration_rel_error", de).scalar("base_config_duration_rel_error_se", dse);
+        out.scalar("base_config_ep_final_rel_error", ee).scalar("base_config_ep_final_rel_error_se", ese);
     }
     for (s, r) in rows.iter().filter(|r| r.0.3 != shape0 || r.0.4 != scheme0) {
         // the two-valued knobs: the alternative against the base shape/scheme at its setting
@@ -750,7 +779,7 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-work-precision`.
 pub const WP_KIND: Kind = Kind {
     name: "mpm-work-precision",
-    version: 3,
+    version: 4,
     about: "MPM column run-out error vs wall time over PPC × cell size × Courant number",
     params: typed::<WorkPrecisionParams>,
     run: run_wp,

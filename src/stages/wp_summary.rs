@@ -352,3 +352,36 @@ pub const KIND: Kind = Kind {
     run,
     explain: None,
 };
+
+/// Relative error of an ensemble mean against the reference ensemble's mean, and its
+/// standard error √(s²/n + s_ref²/n_ref)/|mean_ref| (NaN for single runs): the
+/// work-precision stages' measure for every quantity (run-out, duration, final energy).
+pub fn ensemble_error(v: &[f64], reference: &[f64]) -> (f64, f64, f64) {
+    let stats = |x: &[f64]| {
+        let n = x.len() as f64;
+        let m = x.iter().sum::<f64>() / n;
+        let s2 = if x.len() > 1 { x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0) } else { f64::NAN };
+        (m, s2, n)
+    };
+    let ((m, s2, n), (mr, sr2, nr)) = (stats(v), stats(reference));
+    let d = mr.abs().max(1e-300);
+    (m, (m - mr).abs() / d, (s2 / n + sr2 / nr).sqrt() / d)
+}
+
+#[cfg(test)]
+mod ensemble_error_tests {
+    use super::ensemble_error;
+
+    #[test]
+    fn error_and_standard_error_of_two_ensembles() {
+        // means 2 and 1.5 (s² = 1 and 0.25, n = 3): error 0.25/… = |2 − 1.5|/1.5
+        let (m, e, se) = ensemble_error(&[1.0, 2.0, 3.0], &[1.0, 1.5, 2.0]);
+        assert_eq!(m, 2.0);
+        assert!((e - 0.5 / 1.5).abs() < 1e-15);
+        assert!((se - ((1.0 / 3.0 + 0.25 / 3.0) as f64).sqrt() / 1.5).abs() < 1e-15);
+        // the reference against itself: no error
+        assert_eq!(ensemble_error(&[1.0, 2.0], &[1.0, 2.0]).1, 0.0);
+        // single runs have no standard error
+        assert!(ensemble_error(&[1.0], &[2.0]).2.is_nan());
+    }
+}
