@@ -369,6 +369,56 @@ impl FrameTimes {
     pub fn ends(&self, taken: usize) -> bool { self.end_after_last && !self.times.is_empty() && self.all_taken(taken) }
 }
 
+/// A pile run's samples and frames, and whether it met the stopping rule.
+pub struct Sampled {
+    /// One sample every `stop.sample_every`, from t = 0.
+    pub samples: Vec<Sample>,
+    /// The frames taken.
+    pub frames: Vec<Frame>,
+    /// Whether the rule stopped it (false: t_max, or a frames-only run's last frame).
+    pub stopped: bool,
+}
+
+/// The sampling loop every pile run shares, whatever the solver (DEM, CD, MPM): record at
+/// t = 0, then `advance` to each next sample instant and record, take the frames that are
+/// due, stop by the rule once every frame is taken — or at t_max, or after the last frame
+/// of a frames-only run.
+#[allow(clippy::too_many_arguments)]
+pub fn sample_run<S, E>(
+    s: &mut S,
+    stop: &StopRule,
+    frames: &FrameTimes,
+    e0: f64,
+    g: f64,
+    time: impl Fn(&S) -> f64,
+    rec: impl Fn(&S) -> Sample,
+    frame: impl Fn(&S) -> Frame,
+    mut advance: impl FnMut(&mut S) -> Result<(), E>,
+) -> Result<Sampled, E> {
+    let dts = stop.dt_sample(g);
+    let mut samples = vec![rec(s)];
+    let mut shots = Vec::new();
+    if frames.due(0, time(s), dts) {
+        shots.push(frame(s));
+    }
+    let mut stopped = false;
+    loop {
+        advance(s)?;
+        samples.push(rec(s));
+        if frames.due(shots.len(), time(s), dts) {
+            shots.push(frame(s));
+        }
+        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
+            stopped = true;
+            break;
+        }
+        if frames.ends(shots.len()) || stop.expired(time(s), g) {
+            break;
+        }
+    }
+    Ok(Sampled { samples, frames: shots, stopped })
+}
+
 /// Cavity behind the mass next to the left wall (figs 4.31, 4.42; figures.md "empty cells of
 /// the pile envelope adjacent to x = 0"), as an area [m²]: with the free-surface profile
 /// top(x) (highest body edge per bin of width `bin`, 0 for empty bins) over x ∈ [0, l], the

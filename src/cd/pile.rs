@@ -225,7 +225,7 @@ pub fn run_excited_pile_frames(
 ) -> Result<crate::dem::pile::PileRun, CdError> {
     use crate::dem::pile::grain_frame;
     use crate::analysis::front::Link;
-    use crate::analysis::pile::{Sample, excitation, grain_sample, kinetic};
+    use crate::analysis::pile::{excitation, grain_sample, kinetic, sample_run};
     let mut s = pile.clone();
     s.stop();
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
@@ -237,35 +237,20 @@ pub fn run_excited_pile_frames(
     let h_max = params.dt;
     let mut w = World::new(params.clone(), s, vec![Wall::floor(0.0), Wall::left(0.0)], None)?;
     let g = params.gravity;
-    let rec = |w: &World| -> Sample { grain_sample(w.t, &w.state, link) };
-    let mut samples = vec![rec(&w)];
-    let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
-    let mut shots = Vec::new();
-    if frames.due(0, w.t, dts) {
-        shots.push(grain_frame(w.t, &w.state));
-    }
-    let mut stopped = false;
     let mut next = dts;
-    loop {
+    let advance = |w: &mut World| -> Result<(), CdError> {
         while w.t < next - 1e-12 {
             let h = w.adapt_dt(h_max).min(next - w.t).max(1e-9);
             w.params.dt = h;
             w.step()?;
         }
         next += dts;
-        samples.push(rec(&w));
-        if frames.due(shots.len(), w.t, dts) {
-            shots.push(grain_frame(w.t, &w.state));
-        }
-        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
-            stopped = true;
-            break;
-        }
-        if frames.ends(shots.len()) || stop.expired(w.t, g) {
-            break;
-        }
-    }
+        Ok(())
+    };
+    let run = sample_run(&mut w, stop, frames, e0, g, |w| w.t, |w| grain_sample(w.t, &w.state, link), |w| grain_frame(w.t, &w.state), advance)?;
+    let l0 = run.samples[0].l;
+    let crate::analysis::pile::Sampled { samples, frames: shots, stopped } = run;
     let st = &w.state;
     Ok(crate::dem::pile::PileRun { samples, l0, e0, e0_check, stopped, steps: w.step_count, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()), frames: shots })
 }

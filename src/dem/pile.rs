@@ -5,7 +5,7 @@
 //! fastest grain slower than `settle_speed` √(g d̄), checked every 1 ms of simulated time).
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, StopRule, excitation, grain_sample, kinetic};
+use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, grain_sample, kinetic, sample_run};
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
 use crate::dem::prep::{DepositionParams, ballistic_deposition, box_walls, quench};
@@ -139,29 +139,10 @@ pub fn run_pile_frames(pile: &State, params: &DemParams, profile: Profile, e0: R
     p.ledger = false;
     let mut w = World::new(p, s, pile_walls(), None)?;
     let g = params.gravity;
-    let rec = |w: &World| -> Sample { grain_sample(w.t, &w.state, link) };
-    let mut samples = vec![rec(&w)];
-    let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
-    let mut shots = Vec::new();
-    if frames.due(0, w.t, dts) {
-        shots.push(grain_frame(w.t, &w.state));
-    }
-    let mut stopped = false;
-    loop {
-        w.run_until(w.t + dts)?;
-        samples.push(rec(&w));
-        if frames.due(shots.len(), w.t, dts) {
-            shots.push(grain_frame(w.t, &w.state));
-        }
-        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
-            stopped = true;
-            break;
-        }
-        if frames.ends(shots.len()) || stop.expired(w.t, g) {
-            break;
-        }
-    }
+    let run = sample_run(&mut w, stop, frames, e0, g, |w| w.t, |w| grain_sample(w.t, &w.state, link), |w| grain_frame(w.t, &w.state), |w| w.run_until(w.t + dts))?;
+    let l0 = run.samples[0].l;
+    let Sampled { samples, frames: shots, stopped } = run;
     let st = &w.state;
     Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: w.steps, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()), frames: shots })
 }

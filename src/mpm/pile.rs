@@ -8,7 +8,7 @@
 //! stress field is kept, velocities and plastic history reset.
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, StopRule, excitation, kinetic, surface_at};
+use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, kinetic, sample_run, surface_at};
 use crate::dem::pile::PileRun;
 use crate::math::{Real, Vec2};
 use crate::mpm::boundary::column_walls;
@@ -130,7 +130,7 @@ pub fn run_pile_frames(pile: &MpmPile, params: &MpmParams, profile: Profile, e0:
     for (p, v) in state.points.iter_mut().zip(&vx) {
         p.v = Vec2::new(*v, 0.0);
     }
-    let mut solver = Solver::new(params, pile.grid.clone(), column_walls(params.wall_friction))?;
+    let solver = Solver::new(params, pile.grid.clone(), column_walls(params.wall_friction))?;
     let el = *solver.elastic();
     let g = params.gravity;
     let rec = |st: &State| -> Sample {
@@ -138,33 +138,21 @@ pub fn run_pile_frames(pile: &MpmPile, params: &MpmParams, profile: Profile, e0:
         let f = front_of_points(&st.points, lp, link / 1.5);
         Sample { t: st.t, l: f.length, h: f.height, ek: e.kinetic_grid, ekx: e.kinetic_x, eky: e.kinetic_y, erot: 0.0 }
     };
-    let mut samples = vec![rec(&state)];
-    let l0 = samples[0].l;
     let dts = stop.dt_sample(g);
     let mut next = dts;
-    let mut shots = Vec::new();
-    if frames.due(0, state.t, dts) {
-        shots.push(point_frame(&state, lp));
-    }
-    let mut stopped = false;
-    loop {
+    let advance = |(solver, state): &mut (Solver, State)| -> Result<(), MpmError> {
         while state.t < next - 1e-12 {
-            let dt = solver.dt(&state).min(next - state.t).max(1e-9);
-            solver.step(&mut state, dt)?;
+            let dt = solver.dt(state).min(next - state.t).max(1e-9);
+            solver.step(state, dt)?;
         }
         next += dts;
-        samples.push(rec(&state));
-        if frames.due(shots.len(), state.t, dts) {
-            shots.push(point_frame(&state, lp));
-        }
-        if stop.done(&samples, e0, g) && frames.all_taken(shots.len()) {
-            stopped = true;
-            break;
-        }
-        if frames.ends(shots.len()) || stop.expired(state.t, g) {
-            break;
-        }
-    }
+        Ok(())
+    };
+    let mut sv = (solver, state);
+    let run = sample_run(&mut sv, stop, frames, e0, g, |s| s.1.t, |s| rec(&s.1), |s| point_frame(&s.1, lp), advance)?;
+    let state = sv.1;
+    let l0 = run.samples[0].l;
+    let Sampled { samples, frames: shots, stopped } = run;
     let xs = state.points.iter().map(|p| p.x.x).collect();
     let ys = state.points.iter().map(|p| p.x.y).collect();
     Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: state.step, final_bodies: (xs, ys, vec![lp; state.points.len()]), frames: shots })
