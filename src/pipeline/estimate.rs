@@ -337,14 +337,16 @@ fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
 mod tests {
     use super::*;
 
+    /// The shipped pipeline.yaml at `profile`.
+    fn shipped(profile: &str) -> Pipeline {
+        load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.yaml"), profile, &[]).unwrap()
+    }
+
     /// The shear test's ratio, worked by hand from stages/shear-dem.yaml and psd-shear.yaml:
     /// grains 1078/400, steps √(1/0.01) × (2.0/0.6) × Σ_paper P^-½ / Σ_quick P^-½.
     #[test]
     fn paper_shear_test_scales_by_grains_times_steps() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let p = load(&root.join("pipeline.yaml"), "paper", &[]).unwrap();
-        let q = load(&root.join("pipeline.yaml"), "quick", &[]).unwrap();
-        let dir = tempfile::tempdir().unwrap();
+        let (p, q, dir) = (shipped("paper"), shipped("quick"), tempfile::tempdir().unwrap());
         let proj = Project::new(dir.path());
         std::fs::create_dir_all(proj.report_dir("quick")).unwrap();
         std::fs::write(proj.report_dir("quick").join("fig4-03.record.json"), r#"{"wall_s": 100.0, "threads": 2}"#).unwrap();
@@ -371,10 +373,7 @@ mod tests {
     /// the quick profile's softened contacts.
     #[test]
     fn paper_pile_runs_scale_by_the_piles_grains() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let p = load(&root.join("pipeline.yaml"), "paper", &[]).unwrap();
-        let q = load(&root.join("pipeline.yaml"), "quick", &[]).unwrap();
-        let dir = tempfile::tempdir().unwrap();
+        let (p, q, dir) = (shipped("paper"), shipped("quick"), tempfile::tempdir().unwrap());
         let proj = Project::new(dir.path());
         std::fs::create_dir_all(proj.report_dir("quick")).unwrap();
         for id in ["pile-dem-g", "fig4-23"] {
