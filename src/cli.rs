@@ -140,6 +140,14 @@ pub enum Cmd {
         /// Estimated CPU-hours per stage family, scaled from the quick profile's run records.
         #[arg(long)]
         estimate: bool,
+        /// Where the last run's time went, from the run records in the cache: each stage's
+        /// start, wall time and threads, the span and the critical chain (run it after a
+        /// cold `run` for the pipeline's cost).
+        #[arg(long, conflicts_with = "estimate")]
+        timings: bool,
+        /// With --timings: list only stages at least this long [s] (the totals count all).
+        #[arg(long, default_value_t = 0.0, requires = "timings")]
+        min_wall: f64,
     },
     /// Export the stage graph to a workflow engine (written to stdout).
     Export {
@@ -316,7 +324,13 @@ pub fn run_cli(cli: Cli) -> i32 {
         None => proj,
     };
     match cli.cmd {
-        Cmd::Plan { stages, profile, json, estimate } => plan_cmd(&cli.pipeline, &proj, &stages, profile, json, estimate),
+        Cmd::Plan { stages, profile, json, estimate, timings, min_wall } => {
+            if timings {
+                timings_cmd(&cli.pipeline, &proj, &stages, profile, json, min_wall)
+            } else {
+                plan_cmd(&cli.pipeline, &proj, &stages, profile, json, estimate)
+            }
+        }
         Cmd::Export { engine: ExportEngine::Snakemake, profile, stages, bin, threads, mem_mb } => {
             export_snakemake(&cli.pipeline, &proj, shared_cache.as_deref(), &stages, profile, bin, threads, mem_mb)
         }
@@ -572,6 +586,36 @@ fn plan_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: Profile
                 println!("{}", serde_json::to_string_pretty(&crate::pipeline::plan::to_json(&p, proj, &st)).unwrap_or_default());
             } else {
                 print!("{}", crate::pipeline::plan::to_text(&st));
+            }
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}
+
+/// `plan --timings`: the run records of the plan's stages (see `pipeline::timings`).
+fn timings_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: ProfileArg, json: bool, min_wall: f64) -> i32 {
+    let p = match load(pipeline, profile.name(), &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}");
+            return 2;
+        }
+    };
+    if !(min_wall.is_finite() && min_wall >= 0.0) {
+        eprintln!("error: --min-wall {min_wall}: expected seconds ≥ 0");
+        return 2;
+    }
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    match crate::pipeline::timings::timings(&p, proj, stages) {
+        Ok(t) => {
+            if json {
+                println!("{}", serde_json::to_string_pretty(&t.to_json(cores)).unwrap_or_default());
+            } else {
+                print!("{}", t.to_text(cores, min_wall));
             }
             0
         }

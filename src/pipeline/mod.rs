@@ -12,6 +12,7 @@ pub mod plan;
 pub mod publish;
 pub mod run;
 pub mod spec;
+pub mod timings;
 
 pub use context::{Claim, InputRef, Output, StageCtx};
 pub use diag::{Diagnostic, Diagnostics};

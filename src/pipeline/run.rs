@@ -561,7 +561,7 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
         progress: pb,
         threads: rayon::current_num_threads(),
     };
-    let started = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let started = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs_f64()).unwrap_or(0.0);
     let t0 = Instant::now();
     let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (kind.run)(&ctx)));
     let wall_s = t0.elapsed().as_secs_f64();
