@@ -436,17 +436,29 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             // D21: E_0[mgd] per grain = E_0 / (N m g d), m = 0.0123 kg, d = 2.455 mm.
             let unit = pile.state.len() as f64 * M_NORM * g * D_NORM;
             let run = p.dem.softened(p.stiffness_factor);
-            for (k, &e) in p.energies_mgd.iter().enumerate() {
-                let clock = std::time::Instant::now();
-                let ft = frame_times(&p, e, g);
-                let r = if p.method == Method::Dem {
-                    crate::dem::pile::run_pile_frames(&pile.state, &run, p.profile, e * unit, &p.stop, &ft)?
-                } else {
-                    crate::cd::pile::run_excited_pile_frames(&pile.state, &p.cd, p.profile, e * unit, &p.stop, &ft)?
-                };
-                let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
-                runs.push((s, r, clock.elapsed().as_secs_f64()));
-                ctx.set_progress((k + 1) as f64 / n as f64);
+            // The energies are independent runs of a small pile (each steps on one thread):
+            // side by side on the stage's pool, results in the order of `energies_mgd`.
+            use rayon::prelude::*;
+            let finished = std::sync::atomic::AtomicUsize::new(0);
+            let results: Vec<anyhow::Result<(Summary, PileRun, f64)>> = p
+                .energies_mgd
+                .par_iter()
+                .map(|&e| {
+                    let clock = std::time::Instant::now();
+                    let ft = frame_times(&p, e, g);
+                    let r = if p.method == Method::Dem {
+                        crate::dem::pile::run_pile_frames(&pile.state, &run, p.profile, e * unit, &p.stop, &ft)?
+                    } else {
+                        crate::cd::pile::run_excited_pile_frames(&pile.state, &p.cd, p.profile, e * unit, &p.stop, &ft)?
+                    };
+                    let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
+                    let k = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    ctx.set_progress(k as f64 / n as f64);
+                    Ok((s, r, clock.elapsed().as_secs_f64()))
+                })
+                .collect();
+            for r in results {
+                runs.push(r?);
             }
             if p.method == Method::Dem {
                 out.scalar("stiffness_factor", p.stiffness_factor).scalar("dt_s", run.dt);
