@@ -77,6 +77,13 @@ fn golden_numbers_quick_profile() {
     let targets: Vec<String> = golden.iter().map(|s| s.to_string()).collect();
     let s = run(&p, &proj, &RunOptions { targets, jobs: 2, quiet: true, ..Default::default() }).unwrap();
     assert!(!s.failed(), "{:?}", s.stages);
+    // The run's cost, stage by stage, from its run records (`granrepro plan --timings`):
+    // a cold golden run is the cold quick pipeline (issue 13), so keep its table beside
+    // the build (`target/tmp/golden-timings-quick.txt`; printed with `--nocapture`).
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let timings = granrepro::pipeline::timings::timings(&p, &proj, &s.stages.iter().map(|x| x.id.clone()).collect::<Vec<_>>()).unwrap().to_text(cores, 0.0);
+    std::fs::write(Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden-timings-quick.txt"), &timings).unwrap();
+    println!("{timings}");
     for id in &golden {
         let v: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("reports/quick").join(format!("{id}.json"))).unwrap()).unwrap();
         let scalars: BTreeMap<String, String> = v["scalars"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), round(x.as_f64().unwrap_or(f64::NAN), digits(id)))).collect();
