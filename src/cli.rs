@@ -742,7 +742,7 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
                                         "best_block_particle_steps_per_s": r.best_block_particle_steps_per_s,
                                         "pairs_per_grain": r.pairs_per_grain, "contacts_per_grain": r.contacts_per_grain, "rebuilds": r.rebuilds,
                                         "neighbors_s": tm.neighbors, "contacts_s": tm.contacts, "gather_s": tm.gather, "walls_s": tm.walls,
-                                        "rolling_s": tm.rolling, "integrate_s": tm.integrate, "ledger_s": tm.ledger,
+                                        "rolling_s": tm.rolling, "integrate_s": tm.integrate, "ledger_s": tm.ledger, "digest": r.digest,
                                     })
                                 );
                                 if best.as_ref().is_none_or(|b| r.wall_s < b.wall_s) {
