@@ -270,7 +270,11 @@ pub struct ScalingPoint {
 /// 100 warm-up steps. The packing and the contact network per grain are the same at every
 /// size, so the time per step should grow like n (neighbour build, pair and grain loops
 /// are all O(n)).
-pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> {
+pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> { scaling_point_with(base, n, threads, steps, None) }
+
+/// [`scaling_point`] with the world's `team_min_grains` set (None: default): `Some(0)`
+/// steps every size with a thread team when `threads` > 1, to measure the crossover.
+pub fn scaling_point_with(base: &World, n: usize, threads: usize, steps: u64, team_min: Option<usize>) -> Result<ScalingPoint, DemError> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
     pool.install(|| {
         let l0 = 44.5 * 1.38e-3;
@@ -304,6 +308,9 @@ pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Resu
         let mut walls = box_walls(copies as Real * l0);
         walls.retain(|w| w.name != "gate");
         let mut w = World::new(base.params.clone(), st, walls, None)?;
+        if let Some(m) = team_min {
+            w.team_min_grains = m;
+        }
         w.restore_histories(&hist);
         w.run(100)?;
         let t0 = Instant::now();

@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering::*};
 
 /// Below this many grains a world steps on its calling thread even in a multi-thread
 /// pool (and leaves the other threads to other scenes). Measured crossover on the project's
-/// 2-core machine, `bench dem-team` (README "DEM speed, session 5").
+/// 2-core machine, `bench dem-crossover` (README "DEM speed, session 5").
 pub const TEAM_MIN_GRAINS: usize = 1000;
 
 const BITS: u32 = 20;
@@ -136,11 +136,11 @@ impl Drop for Lead<'_> {
 }
 
 /// Run `f` (a world's steps) with a team of the current rayon pool's threads when the pool
-/// has more than one and the world has at least [`TEAM_MIN_GRAINS`] grains; phases inside
-/// share their chunks through [`for_chunks`].
-pub(crate) fn with_team<R: Send>(grains: usize, f: impl FnOnce() -> R + Send) -> R {
+/// has more than one and `big` (the world has at least its `team_min_grains`, by default
+/// [`TEAM_MIN_GRAINS`]); phases inside share their chunks through [`for_chunks`].
+pub(crate) fn with_team<R: Send>(big: bool, f: impl FnOnce() -> R + Send) -> R {
     let threads = rayon::current_num_threads();
-    if threads < 2 || grains < TEAM_MIN_GRAINS || !CURRENT.with(|c| c.get().is_null()) {
+    if threads < 2 || !big || !CURRENT.with(|c| c.get().is_null()) {
         return f();
     }
     let team = Team::new();

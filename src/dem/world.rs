@@ -215,6 +215,10 @@ pub struct World {
     pub paths: crate::dem::timers::PathCounts,
     /// Last step's diagnostics.
     pub info: StepInfo,
+    /// Below this many grains the world steps on its calling thread even in a
+    /// multi-thread pool (default [`crate::dem::team::TEAM_MIN_GRAINS`]; results are the
+    /// same either way — `bench dem-crossover` sets it to measure the crossover).
+    pub team_min_grains: usize,
     pub(crate) nl: NeighborList,
     pub(crate) wall_hist: Vec<ContactState>,
     pub(crate) wall_cn: Vec<Real>,
@@ -269,6 +273,7 @@ impl World {
             timers: PhaseTimers::default(),
             paths: Default::default(),
             info: StepInfo::default(),
+            team_min_grains: crate::dem::team::TEAM_MIN_GRAINS,
             nl: NeighborList::default(),
             wall_hist: Vec::new(),
             wall_cn: Vec::new(),
@@ -408,7 +413,7 @@ impl World {
             // are stale for the first half kick
             self.forces_valid = false;
         }
-        let res = crate::dem::team::with_team(ng, || {
+        let res = crate::dem::team::with_team(ng >= self.team_min_grains, || {
             if !self.forces_valid {
                 self.compute_forces::<R, IMP, L, false>(0.0);
                 self.forces_valid = true;
