@@ -112,10 +112,11 @@ impl Team {
     }
 }
 
-/// Spin briefly (the next phase is µs away), then yield the core.
+/// Spin (the next phase is µs away: a yield would hand the core to another process for a
+/// whole time slice), and yield only after a long wait (~10 ms).
 #[inline(always)]
 fn backoff(spins: &mut u32) {
-    if *spins < 1 << 16 {
+    if *spins < 1 << 22 {
         *spins += 1;
         std::hint::spin_loop();
     } else {
