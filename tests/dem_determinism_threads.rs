@@ -19,13 +19,16 @@ fn packed() -> State {
 
 fn fingerprint(s: &State, threads: usize) -> (Vec<u64>, Vec<u64>) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    pool.install(|| run_scene(s))
+    pool.install(|| run_scene(s, false))
 }
 
-fn run_scene(s: &State) -> (Vec<u64>, Vec<u64>) {
+/// `probe`: let `World::run` choose between team and one thread by timing (default);
+/// else the team steps every step.
+fn run_scene(s: &State, probe: bool) -> (Vec<u64>, Vec<u64>) {
     {
         let p = DemParams { dt: 2e-7, ..DemParams::default() };
         let mut w = World::new(p, s.clone(), box_walls(0.08), None).unwrap();
+        w.team_probe = probe;
         w.run(1000).unwrap();
         w.walls[2].active = false; // open the gate
         w.run(2000).unwrap();
@@ -62,6 +65,6 @@ fn side_by_side_worlds_on_a_shared_pool_match_one_thread() {
     let s = packed();
     let a = fingerprint(&s, 1);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-    let (b, c) = pool.install(|| rayon::join(|| run_scene(&s), || run_scene(&s)));
+    let (b, c) = pool.install(|| rayon::join(|| run_scene(&s, false), || run_scene(&s, true)));
     assert!(a == b && a == c, "a world run beside another differs from the one-thread run");
 }

@@ -273,7 +273,8 @@ pub struct ScalingPoint {
 pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> { scaling_point_with(base, n, threads, steps, None) }
 
 /// [`scaling_point`] with the world's `team_min_grains` set (None: default): `Some(0)`
-/// steps every size with a thread team when `threads` > 1, to measure the crossover.
+/// steps every size with a thread team when `threads` > 1 (no probing against one
+/// thread), to measure the crossover.
 pub fn scaling_point_with(base: &World, n: usize, threads: usize, steps: u64, team_min: Option<usize>) -> Result<ScalingPoint, DemError> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
     pool.install(|| {
@@ -310,6 +311,7 @@ pub fn scaling_point_with(base: &World, n: usize, threads: usize, steps: u64, te
         let mut w = World::new(base.params.clone(), st, walls, None)?;
         if let Some(m) = team_min {
             w.team_min_grains = m;
+            w.team_probe = false;
         }
         w.restore_histories(&hist);
         w.run(100)?;

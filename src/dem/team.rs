@@ -18,6 +18,12 @@
 //! never scheduled (busy pool, loaded machine) cannot stall the run. Every chunk writes
 //! its own output slot and the lead reduces them in chunk order: results do not depend on
 //! which thread ran which chunk, nor on the number of threads.
+//!
+//! A team only pays when its threads run at the same time: when there are more runnable
+//! threads than cores (other processes), a helper descheduled while it holds a chunk
+//! makes the lead wait a time slice at the phase's end, and the step runs slower than on
+//! the lead alone. So [`World::run`](crate::dem::World::run) times a few steps alone and a
+//! few with the team, and keeps the faster (see `World::run_with`).
 
 use std::cell::{Cell, UnsafeCell};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering::*};
@@ -60,7 +66,7 @@ impl Team {
 
     /// Lead: run `f(c)` for every `c` in `0..nc` on the team; returns when all are done.
     fn run(&self, nc: usize, f: &(dyn Fn(usize) + Sync)) {
-        if nc > MAX_CHUNKS || nc < 2 {
+        if nc > MAX_CHUNKS || nc < 2 || self.quit.load(Relaxed) {
             (0..nc).for_each(f);
             return;
         }
@@ -153,6 +159,16 @@ pub(crate) fn with_team<R: Send>(big: bool, f: impl FnOnce() -> R + Send) -> R {
         let _lead = Lead(&team, prev);
         f()
     })
+}
+
+/// Lead: send the current team's helpers away; the lead runs the rest of the team's scope
+/// alone (same chunks, same results).
+pub(crate) fn dismiss() {
+    let t = CURRENT.with(|c| c.get());
+    if !t.is_null() {
+        // SAFETY: as in `for_chunks`
+        unsafe { &*t }.quit.store(true, Release);
+    }
 }
 
 /// `f(c)` for every chunk `c` in `0..nc`: on the current team if there is one, else in

@@ -34,6 +34,11 @@ use std::time::Instant;
 pub const PAIR_CHUNK: usize = 512;
 /// Grains per parallel work unit.
 pub const GRAIN_CHUNK: usize = 256;
+/// Steps for which [`World::run`] keeps its choice between stepping a world alone and with
+/// a thread team, made by timing [`TEAM_PROBE`] steps each way.
+pub const TEAM_SEGMENT: u64 = 4096;
+/// See [`TEAM_SEGMENT`].
+pub const TEAM_PROBE: u64 = 128;
 /// Most walls a scene can have.
 pub const MAX_WALLS: usize = 8;
 
@@ -219,6 +224,12 @@ pub struct World {
     /// multi-thread pool (default [`crate::dem::team::TEAM_MIN_GRAINS`]; results are the
     /// same either way — `bench dem-crossover` sets it to measure the crossover).
     pub team_min_grains: usize,
+    /// Whether `run` times steps alone against steps with the team and keeps the faster
+    /// (default true; `bench dem-crossover` turns it off to time the team itself).
+    pub team_probe: bool,
+    /// The probe's choice (team or alone) and the step until which it holds.
+    pub(crate) team_on: bool,
+    pub(crate) team_until: u64,
     pub(crate) nl: NeighborList,
     pub(crate) wall_hist: Vec<ContactState>,
     pub(crate) wall_cn: Vec<Real>,
@@ -274,6 +285,9 @@ impl World {
             paths: Default::default(),
             info: StepInfo::default(),
             team_min_grains: crate::dem::team::TEAM_MIN_GRAINS,
+            team_probe: true,
+            team_on: false,
+            team_until: 0,
             nl: NeighborList::default(),
             wall_hist: Vec::new(),
             wall_cn: Vec::new(),
@@ -413,20 +427,51 @@ impl World {
             // are stale for the first half kick
             self.forces_valid = false;
         }
-        let res = crate::dem::team::with_team(ng >= self.team_min_grains, || {
-            if !self.forces_valid {
-                self.compute_forces::<R, IMP, L, false>(0.0);
-                self.forces_valid = true;
-            }
-            let mut res = Ok(());
-            for _ in 0..n {
-                res = self.step_with::<R, IMP, L>();
+        if !self.forces_valid {
+            self.compute_forces::<R, IMP, L, false>(0.0);
+            self.forces_valid = true;
+        }
+        let team = ng >= self.team_min_grains && rayon::current_num_threads() > 1;
+        let mut res = Ok(());
+        let mut left = n;
+        while left > 0 && res.is_ok() {
+            if team && self.team_probe && self.steps >= self.team_until && left >= 2 * TEAM_PROBE {
+                // Time TEAM_PROBE steps alone, then as many with the thread team, and keep
+                // the faster for the next TEAM_SEGMENT steps (the machine's load changes;
+                // results are the same either way).
+                let t0 = Instant::now();
+                res = self.steps_with::<R, IMP, L>(TEAM_PROBE);
+                let solo = t0.elapsed();
                 if res.is_err() { break; }
+                let k = (left - 2 * TEAM_PROBE).min(TEAM_SEGMENT);
+                res = crate::dem::team::with_team(true, || {
+                    let t1 = Instant::now();
+                    self.steps_with::<R, IMP, L>(TEAM_PROBE)?;
+                    // the team must be clearly faster: a short probe is noisy
+                    self.team_on = 5 * t1.elapsed() < 4 * solo;
+                    self.team_until = self.steps + TEAM_SEGMENT;
+                    if !self.team_on {
+                        crate::dem::team::dismiss();
+                    }
+                    self.steps_with::<R, IMP, L>(k)
+                });
+                left -= 2 * TEAM_PROBE + k;
+            } else {
+                let on = team && (!self.team_probe || self.team_on);
+                let k = if on && self.team_probe { left.min(self.team_until.saturating_sub(self.steps).max(1)) } else { left };
+                res = crate::dem::team::with_team(on, || self.steps_with::<R, IMP, L>(k));
+                left -= k;
             }
-            res
-        });
+        }
         self.walls_seen.clone_from(&self.walls);
         res
+    }
+
+    fn steps_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
+        for _ in 0..n {
+            self.step_with::<R, IMP, L>()?;
+        }
+        Ok(())
     }
 
     fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self) -> Result<(), DemError> {
