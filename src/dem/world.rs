@@ -458,7 +458,8 @@ impl World {
                 left -= 2 * TEAM_PROBE + k;
             } else {
                 let on = team && (!self.team_probe || self.team_on);
-                let k = if on && self.team_probe { left.min(self.team_until.saturating_sub(self.steps).max(1)) } else { left };
+                // until the choice expires (then probe again), else to the end
+                let k = if team && self.team_probe && self.team_until > self.steps { left.min(self.team_until - self.steps) } else { left };
                 res = crate::dem::team::with_team(on, || self.steps_with::<R, IMP, L>(k));
                 left -= k;
             }
