@@ -444,18 +444,25 @@ impl World {
                 let solo = t0.elapsed();
                 if res.is_err() { break; }
                 let k = (left - 2 * TEAM_PROBE).min(TEAM_SEGMENT);
+                let mut ran = 0;
                 res = crate::dem::team::with_team(true, || {
+                    // the first team steps wait for the helpers to wake and fill their
+                    // caches: time the team after TEAM_PROBE / 4 of them
+                    self.steps_with::<R, IMP, L>(TEAM_PROBE / 4)?;
                     let t1 = Instant::now();
-                    self.steps_with::<R, IMP, L>(TEAM_PROBE)?;
+                    self.steps_with::<R, IMP, L>(TEAM_PROBE - TEAM_PROBE / 4)?;
+                    let team = t1.elapsed().as_secs_f64() / (TEAM_PROBE - TEAM_PROBE / 4) as f64;
                     // the team must be clearly faster: a short probe is noisy
-                    self.team_on = 5 * t1.elapsed() < 4 * solo;
-                    self.team_until = self.steps + TEAM_SEGMENT;
+                    self.team_on = team < 0.9 * solo.as_secs_f64() / TEAM_PROBE as f64;
+                    // a lost probe is retried sooner (a busy moment, or noise)
+                    self.team_until = self.steps + if self.team_on { TEAM_SEGMENT } else { TEAM_SEGMENT / 4 };
                     if !self.team_on {
                         crate::dem::team::dismiss();
                     }
-                    self.steps_with::<R, IMP, L>(k)
+                    ran = k.min(self.team_until - self.steps);
+                    self.steps_with::<R, IMP, L>(ran)
                 });
-                left -= 2 * TEAM_PROBE + k;
+                left -= 2 * TEAM_PROBE + ran;
             } else {
                 let on = team && (!self.team_probe || self.team_on);
                 // until the choice expires (then probe again), else to the end
