@@ -71,6 +71,9 @@ pub enum BenchEngine {
     /// Cost growth: wall time per step against grain / point count (1e3 … 1e5) for DEM,
     /// CD and MPM, one thread; a table, JSON lines and `--svg FILE`.
     Scaling,
+    /// In-step parallelism crossover: DEM step time on 1 thread and on every thread of the
+    /// machine (thread team forced on) for the settled column cut to 250 … 5848 grains.
+    DemCrossover,
     /// Per-stage table of the optional terms and outputs each scene enables, and the step
     /// cost of its configuration against everything on (issue 12; README "Stability and cost").
     LeaveOut,
@@ -757,6 +760,7 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
     };
     match engine {
         BenchEngine::Scaling => bench_scaling(steps, o),
+        BenchEngine::DemCrossover => bench_dem_crossover(steps, o, all),
         BenchEngine::Dem => {
             use crate::dem::bench::{BenchCase, run};
             let steps = steps.unwrap_or(20_000);
@@ -786,7 +790,7 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
                                         "best_block_particle_steps_per_s": r.best_block_particle_steps_per_s,
                                         "pairs_per_grain": r.pairs_per_grain, "contacts_per_grain": r.contacts_per_grain, "rebuilds": r.rebuilds,
                                         "neighbors_s": tm.neighbors, "contacts_s": tm.contacts, "gather_s": tm.gather, "walls_s": tm.walls,
-                                        "rolling_s": tm.rolling, "integrate_s": tm.integrate, "ledger_s": tm.ledger,
+                                        "rolling_s": tm.rolling, "integrate_s": tm.integrate, "ledger_s": tm.ledger, "digest": r.digest,
                                     })
                                 );
                                 if best.as_ref().is_none_or(|b| r.wall_s < b.wall_s) {
@@ -873,6 +877,41 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
         }
         BenchEngine::LeaveOut => 2, // needs the pipeline: dispatched in run_cli
     }
+}
+
+/// `bench dem-crossover`: µs per step on 1 thread and on `all` threads (team forced on)
+/// by grain count, best of `--repeat`, alternating the two at each size.
+fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
+    use crate::dem::bench::{BenchCase, bench_dt, bench_scene, scaling_point_with};
+    let (dt, _) = bench_dt(BenchCase::Full);
+    let base = match bench_scene(BenchCase::Full, dt) {
+        Ok(w) => w,
+        Err(e) => {
+            eprintln!("error: bench dem-crossover: {e}");
+            return 1;
+        }
+    };
+    let multi = o.threads.iter().copied().max().unwrap_or(all).max(2);
+    println!("dem-crossover | rolling + ledger | best of {} | µs per step", o.repeat.max(1));
+    println!("  {:>6} {:>10} {:>10} {:>8}", "grains", "1 thread", format!("{multi} threads"), "speed-up");
+    for n in [250usize, 500, 750, 1000, 1500, 2000, 2924, 5848] {
+        let st = steps.unwrap_or((2_000_000 / n as u64).clamp(200, 5000));
+        let (mut t1, mut t2) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..o.repeat.max(1) {
+            for (t, best) in [(1, &mut t1), (multi, &mut t2)] {
+                match scaling_point_with(&base, n, t, st, Some(0)) {
+                    Ok(p) => *best = best.min(p.s_per_step),
+                    Err(e) => {
+                        eprintln!("error: bench dem-crossover ({n}): {e}");
+                        return 1;
+                    }
+                }
+            }
+        }
+        println!("{}", serde_json::json!({"bench": "dem-crossover", "n": n, "steps": st, "s_per_step_1": t1, "threads": multi, "s_per_step_multi": t2}));
+        println!("  {:>6} {:>10.1} {:>10.1} {:>7.2}x", n, 1e6 * t1, 1e6 * t2, t1 / t2);
+    }
+    0
 }
 
 /// `bench scaling`: seconds per step against size for the three engines, one thread.

@@ -66,6 +66,31 @@ pub struct BenchResult {
     /// loaded machine cpu_s/wall_s < threads shows how much CPU the run actually got
     /// (LAMMPS prints the same as "% CPU use").
     pub cpu_s: f64,
+    /// blake3 of the final grain state, contact histories and ledger (bit patterns): equal
+    /// digests at 1 and 2 threads, or from two binaries, show bit-identical runs.
+    pub digest: String,
+}
+
+/// blake3 of every grain's x, y, v, ω, θ, the pair and wall histories and the ledger.
+pub fn world_digest(w: &World) -> String {
+    let mut h = blake3::Hasher::new();
+    let s = &w.state;
+    for v in [&s.x, &s.y, &s.vx, &s.vy, &s.w, &s.theta] {
+        for x in v.iter() {
+            h.update(&x.to_bits().to_le_bytes());
+        }
+    }
+    let sh = w.saved_histories();
+    for (a, b, c) in sh.pairs.iter().chain(sh.walls.iter()) {
+        h.update(&a.to_le_bytes());
+        h.update(&b.to_le_bytes());
+        for x in [c.tangential, c.rolling, c.ft, c.mr] {
+            h.update(&x.to_bits().to_le_bytes());
+        }
+    }
+    let l = w.ledger;
+    h.update(format!("{l:?}").as_bytes());
+    h.finalize().to_hex()[..16].to_string()
 }
 
 /// Process user + system CPU time [s] from /proc/self/stat (clock ticks of 1/100 s).
@@ -218,6 +243,7 @@ pub fn run(case: BenchCase, threads: usize, steps: u64, dt: Option<Real>) -> Res
             pairs_per_grain: w.pair_count() as f64 / grains as f64,
             timers: w.timers,
             cpu_s,
+            digest: world_digest(&w),
         })
     })
 }
@@ -244,7 +270,12 @@ pub struct ScalingPoint {
 /// 100 warm-up steps. The packing and the contact network per grain are the same at every
 /// size, so the time per step should grow like n (neighbour build, pair and grain loops
 /// are all O(n)).
-pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> {
+pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> { scaling_point_with(base, n, threads, steps, None) }
+
+/// [`scaling_point`] with the world's `team_min_grains` set (None: default): `Some(0)`
+/// steps every size with a thread team when `threads` > 1 (no probing against one
+/// thread), to measure the crossover.
+pub fn scaling_point_with(base: &World, n: usize, threads: usize, steps: u64, team_min: Option<usize>) -> Result<ScalingPoint, DemError> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
     pool.install(|| {
         let l0 = 44.5 * 1.38e-3;
@@ -278,6 +309,10 @@ pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Resu
         let mut walls = box_walls(copies as Real * l0);
         walls.retain(|w| w.name != "gate");
         let mut w = World::new(base.params.clone(), st, walls, None)?;
+        if let Some(m) = team_min {
+            w.team_min_grains = m;
+            w.team_probe = false;
+        }
         w.restore_histories(&hist);
         w.run(100)?;
         let t0 = Instant::now();

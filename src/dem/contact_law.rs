@@ -114,6 +114,15 @@ pub struct PairOut {
     pub work: PairWork,
 }
 
+/// `if c { a } else { b }` for floats, as a select (no branch).
+#[inline(always)]
+fn select(c: bool, a: Real, b: Real) -> Real {
+    // through the bit patterns: LLVM keeps this a blend, where it may turn a float select
+    // whose operand is a division back into a branch
+    let m = (c as u64).wrapping_neg();
+    Real::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
 /// The contact law. `ROLLING`: rolling resistance present; `IMPLICIT`: the rolling dashpot
 /// is left to the integrator (pairwise backward Euler), else applied explicitly here;
 /// `LEDGER`: dissipation is booked.
@@ -138,15 +147,19 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
         // --- tangential history and Coulomb cap ---
         let xi_old = h.tangential;
         let ft_old = h.ft;
-        let mut xi = xi_old + vt * dt;
+        // Both outcomes of the cone test are computed and one is selected, without a
+        // branch: whether a contact slides follows no pattern along the pair list, and as
+        // a branch it was mispredicted contact after contact.
+        let xi_stick = xi_old + vt * dt;
         let gt = c.gt_ratio * p.cn;
-        let mut ft = -c.kt * xi - gt * vt;
+        let ft_stick = -c.kt * xi_stick - gt * vt;
         let ft_max = c.mu * fn_;
-        if ft.abs() > ft_max {
-            ft = ft_max.copysign(ft);
-            // rescale the stored spring so spring + dashpot sits on the cone
-            xi = -(ft + gt * vt) / c.kt;
-        }
+        let slide = ft_stick.abs() > ft_max;
+        let ft_slide = ft_max.copysign(ft_stick);
+        // rescale the stored spring so spring + dashpot sits on the cone
+        let xi_slide = -(ft_slide + gt * vt) / c.kt;
+        let ft = select(slide, ft_slide, ft_stick);
+        let xi = select(slide, xi_slide, xi_stick);
         h.tangential = xi;
         h.ft = ft;
 
@@ -161,18 +174,20 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
             let wr = p.w_i - p.w_j;
             let th_old = h.rolling;
             let m_old = h.mr;
-            let mut th = th_old + wr * dt;
-            let mut m = -c.kr * th;
+            let th_el = th_old + wr * dt;
+            let m_el = -c.kr * th_el;
             let m_max = c.mu_r * p.r_roll * fn_;
-            let plastic = m.abs() >= m_max;
-            if plastic {
-                // full mobilisation: the spring sits on the cap, no dashpot
-                m = m_max.copysign(m);
-                th = -m / c.kr;
-            } else if IMPLICIT {
+            // branch-free as the cone test above
+            let plastic = m_el.abs() >= m_max;
+            // full mobilisation: the spring sits on the cap, no dashpot
+            let m_pl = m_max.copysign(m_el);
+            let th_pl = -m_pl / c.kr;
+            let mut m = select(plastic, m_pl, m_el);
+            let mut th = select(plastic, th_pl, th_el);
+            if IMPLICIT {
                 let cap = if c.cap_dashpot { m_max } else { Real::INFINITY };
-                out.roll = RollDashpot { c: c.cr, m_spring: m, m_max: cap };
-            } else {
+                out.roll = RollDashpot { c: select(plastic, 0.0, c.cr), m_spring: m, m_max: cap };
+            } else if !plastic {
                 m -= c.cr * wr;
                 if c.cap_dashpot && m.abs() > m_max {
                     // spring + dashpot on the cap (LAMMPS `rolling sds`): rescale the spring
@@ -203,6 +218,135 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
     #[inline(always)]
     pub fn released(c: &LawCoeffs, h: &ContactState) -> (Real, Real) {
         (0.5 * c.kt * h.tangential * h.tangential, if ROLLING { 0.5 * c.kr * h.rolling * h.rolling } else { 0.0 })
+    }
+}
+
+/// Contacts per batch of [`eval_pairs`] (its scratch stays in L1).
+pub(crate) const BATCH: usize = 64;
+
+/// Inputs of a batch of grain pairs, lane by lane (structure of arrays): the separation
+/// (dx, dy) = x_i − x_j, its square, r_i + r_j, the relative velocity, spins, radii, the
+/// pair's rolling radius and normal dashpot, and the history (ξ_t, θ_r, F_t, M_r) in,
+/// updated in place.
+#[derive(Clone)]
+pub(crate) struct PairBatch {
+    pub dx: [Real; BATCH],
+    pub dy: [Real; BATCH],
+    pub rsq: [Real; BATCH],
+    pub radsum: [Real; BATCH],
+    pub dvx: [Real; BATCH],
+    pub dvy: [Real; BATCH],
+    pub w_i: [Real; BATCH],
+    pub w_j: [Real; BATCH],
+    pub r_i: [Real; BATCH],
+    pub r_j: [Real; BATCH],
+    pub r_roll: [Real; BATCH],
+    pub cn: [Real; BATCH],
+    pub h: [[Real; BATCH]; 4],
+}
+
+/// Results of a batch, lane by lane: overlap, force on i, torques, rolling dashpot
+/// (c, M_spring, M_max), work (normal, tangential, rolling).
+#[derive(Clone)]
+pub(crate) struct PairBatchOut {
+    pub overlap: [Real; BATCH],
+    pub fx: [Real; BATCH],
+    pub fy: [Real; BATCH],
+    pub t_i: [Real; BATCH],
+    pub t_j: [Real; BATCH],
+    pub roll: [[Real; BATCH]; 3],
+    pub work: [[Real; BATCH]; 3],
+}
+
+impl Default for PairBatch {
+    fn default() -> Self {
+        let z = [0.0; BATCH];
+        PairBatch { dx: z, dy: z, rsq: z, radsum: z, dvx: z, dvy: z, w_i: z, w_j: z, r_i: z, r_j: z, r_roll: z, cn: z, h: [z; 4] }
+    }
+}
+
+impl Default for PairBatchOut {
+    fn default() -> Self {
+        let z = [0.0; BATCH];
+        PairBatchOut { overlap: z, fx: z, fy: z, t_i: z, t_j: z, roll: [z; 3], work: [z; 3] }
+    }
+}
+
+impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING, IMPLICIT, LEDGER> {
+    /// [`Law::eval`] of the first `nb` lanes of a batch of touching grain pairs, with the
+    /// pair geometry (d = √rsq, n = (dx, dy)/d, δ = r_i + r_j − d) — lane by lane the very
+    /// same arithmetic as one call per pair, so the results are bit-identical to it. The
+    /// lanes are independent and the law has no branch on a lane's data, so the loop runs
+    /// several contacts at once (SIMD), where one contact after another was bound by the
+    /// latency of its chain √ → ÷ → cone test → ÷.
+    ///
+    /// Dispatches to a build of the loop for the widest vector unit the CPU has (AVX-512,
+    /// AVX2, else the baseline's SSE2): IEEE add, multiply, divide and square root are
+    /// exactly rounded at any width, and no multiply–add is fused, so every width gives
+    /// the same bits.
+    #[inline]
+    pub(crate) fn eval_pairs(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has the feature
+                return unsafe { Self::eval_pairs_avx512(c, b, o, nb, dt) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has the feature
+                return unsafe { Self::eval_pairs_avx2(c, b, o, nb, dt) };
+            }
+        }
+        Self::eval_pairs_lanes(c, b, o, nb, dt)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline(never)]
+    unsafe fn eval_pairs_avx512(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Self::eval_pairs_lanes(c, b, o, nb, dt) }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn eval_pairs_avx2(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Self::eval_pairs_lanes(c, b, o, nb, dt) }
+
+    /// The lane loop of [`Law::eval_pairs`].
+    #[inline(always)]
+    pub(crate) fn eval_pairs_lanes(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) {
+        let nb = nb.min(BATCH);
+        for l in 0..nb {
+            let d = b.rsq[l].sqrt();
+            let inv = 1.0 / d;
+            let overlap = b.radsum[l] - d;
+            let pin = PairIn {
+                n: Vec2::new(b.dx[l] * inv, b.dy[l] * inv),
+                overlap,
+                v_rel: Vec2::new(b.dvx[l], b.dvy[l]),
+                w_i: b.w_i[l],
+                w_j: b.w_j[l],
+                arm_i: b.r_i[l],
+                arm_j: b.r_j[l],
+                r_roll: b.r_roll[l],
+                cn: b.cn[l],
+            };
+            let mut h = ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] };
+            let r = Self::eval(c, &pin, &mut h, dt);
+            b.h[0][l] = h.tangential;
+            b.h[1][l] = h.rolling;
+            b.h[2][l] = h.ft;
+            b.h[3][l] = h.mr;
+            o.overlap[l] = overlap;
+            o.fx[l] = r.f.x;
+            o.fy[l] = r.f.y;
+            o.t_i[l] = r.t_i;
+            o.t_j[l] = r.t_j;
+            o.roll[0][l] = r.roll.c;
+            o.roll[1][l] = r.roll.m_spring;
+            o.roll[2][l] = r.roll.m_max;
+            o.work[0][l] = r.work.normal;
+            o.work[1][l] = r.work.tangential;
+            o.work[2][l] = r.work.rolling;
+        }
     }
 }
 
@@ -271,5 +415,87 @@ mod tests {
         assert!((o.t_i + m_max).abs() < 1e-12);
         assert!((o.t_i + o.t_j).abs() < 1e-15);
         assert_eq!(o.roll.c, 0.0, "no dashpot at full mobilisation");
+    }
+
+    /// The batched law (SIMD lanes, whichever vector width the CPU has) gives the same bits
+    /// as one scalar call per contact, over sticking, sliding, rolling-plastic, separating
+    /// and capped contacts.
+    fn batch_matches_scalar<const R: bool, const I: bool, const L: bool>(cap_dashpot: bool) {
+        let mut c = coeffs();
+        c.cap_dashpot = cap_dashpot;
+        let mut rng = crate::dem::prep::SplitMix64(7);
+        let mut u = |a: Real, b: Real| a + (b - a) * rng.next_f64();
+        let mut b = PairBatch::default();
+        let mut o = PairBatchOut::default();
+        let nb = BATCH - 3;
+        let mut want = Vec::new();
+        for l in 0..nb {
+            let (ri, rj) = (u(4e-4, 7e-4), u(4e-4, 7e-4));
+            let d = (ri + rj) * u(0.995, 1.0005);
+            let ang = u(0.0, 6.3);
+            let (dx, dy) = (d * ang.cos(), d * ang.sin());
+            b.dx[l] = dx;
+            b.dy[l] = dy;
+            b.rsq[l] = dx * dx + dy * dy;
+            b.radsum[l] = ri + rj;
+            b.dvx[l] = u(-0.3, 0.3);
+            b.dvy[l] = u(-0.3, 0.3);
+            b.w_i[l] = u(-300.0, 300.0);
+            b.w_j[l] = u(-300.0, 300.0);
+            b.r_i[l] = ri;
+            b.r_j[l] = rj;
+            b.r_roll[l] = ri * rj / (ri + rj);
+            b.cn[l] = u(10.0, 100.0);
+            // springs loaded up to twice their caps: both sides of the cone tests
+            let f_scale = c.kn * (ri + rj - d).max(1e-9);
+            let h = ContactState {
+                tangential: u(-2.0, 2.0) * c.mu * f_scale / c.kt,
+                rolling: u(-2.0, 2.0) * c.mu_r * (ri * rj / (ri + rj)) * f_scale / c.kr,
+                ft: u(-1.0, 1.0) * c.mu * f_scale,
+                mr: u(-1e-4, 1e-4),
+            };
+            b.h[0][l] = h.tangential;
+            b.h[1][l] = h.rolling;
+            b.h[2][l] = h.ft;
+            b.h[3][l] = h.mr;
+            let dd = b.rsq[l].sqrt();
+            let inv = 1.0 / dd;
+            let p = PairIn { n: Vec2::new(dx * inv, dy * inv), overlap: ri + rj - dd, v_rel: Vec2::new(b.dvx[l], b.dvy[l]), w_i: b.w_i[l], w_j: b.w_j[l], arm_i: ri, arm_j: rj, r_roll: b.r_roll[l], cn: b.cn[l] };
+            let mut hh = h;
+            let r = Law::<R, I, L>::eval(&c, &p, &mut hh, 1e-6);
+            want.push((hh, r, p.overlap));
+        }
+        Law::<R, I, L>::eval_pairs(&c, &mut b, &mut o, nb, 1e-6);
+        let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (mut touching, mut sliding, mut plastic) = (0, 0, 0);
+        for (l, (h, r, ov)) in want.iter().enumerate() {
+            if *ov <= 0.0 { continue; }
+            touching += 1;
+            // on the Coulomb cone: |F_t| = μ F_n (sliding lane)
+            let fnn = r.f.dot(&Vec2::new(b.dx[l], b.dy[l])) / b.rsq[l].sqrt();
+            sliding += usize::from((h.ft.abs() - c.mu * fnn).abs() <= 1e-12 * fnn.abs());
+            plastic += usize::from(R && I && r.roll.c == 0.0);
+            assert_eq!(bits(&[b.h[0][l], b.h[1][l], b.h[2][l], b.h[3][l]]), bits(&[h.tangential, h.rolling, h.ft, h.mr]), "history, lane {l}");
+            assert_eq!(bits(&[o.overlap[l], o.fx[l], o.fy[l], o.t_i[l], o.t_j[l]]), bits(&[*ov, r.f.x, r.f.y, r.t_i, r.t_j]), "forces, lane {l}");
+            assert_eq!(bits(&[o.roll[0][l], o.work[0][l], o.work[1][l], o.work[2][l]]), bits(&[r.roll.c, r.work.normal, r.work.tangential, r.work.rolling]), "dashpot/work, lane {l}");
+            if r.roll.c > 0.0 {
+                assert_eq!(bits(&[o.roll[1][l], o.roll[2][l]]), bits(&[r.roll.m_spring, r.roll.m_max]), "dashpot, lane {l}");
+            }
+        }
+        assert!(touching > 10 && touching < nb, "touching lanes: {touching} of {nb}");
+        assert!(sliding > 0 && sliding < touching, "sliding lanes: {sliding} of {touching}");
+        if R && I {
+            assert!(plastic > 0 && plastic < touching, "rolling-plastic lanes: {plastic} of {touching}");
+        }
+    }
+
+    #[test]
+    fn batched_law_is_bit_identical_to_the_scalar_law() {
+        batch_matches_scalar::<true, true, true>(true);
+        batch_matches_scalar::<true, true, true>(false);
+        batch_matches_scalar::<true, false, true>(true);
+        batch_matches_scalar::<true, true, false>(true);
+        batch_matches_scalar::<false, false, true>(true);
+        batch_matches_scalar::<false, false, false>(true);
     }
 }

@@ -78,14 +78,14 @@ impl World {
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
         let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
+        let x0y0 = have_x0.then_some((x0, y0));
         chunked(n, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
             let mut part = Partial::default();
-            for a in lo..hi {
-                unsafe {
-                    let (vxn, vyn, wn) = kick_one::<L>(a, h, inv_m[a], inv_i[a], (fx[a], fy[a], tq[a]), (vx, vy, w), &mut part);
-                    if DRIFT {
-                        part.moved |= drift_one::<THETA>(a, dt, (vxn, vyn, wn), (x, y, th), have_x0.then_some((x0, y0)), lim);
-                    }
+            // SAFETY: chunks are disjoint grain ranges of arrays of length n
+            unsafe {
+                let (vxn, vyn, wn) = kick_range::<L>(lo, hi, h, (&inv_m.0[lo..hi], &inv_i.0[lo..hi]), (&fx.0[lo..hi], &fy.0[lo..hi], &tq.0[lo..hi]), (vx, vy, w), &mut part);
+                if DRIFT {
+                    part.moved = drift_range::<THETA>(lo, dt, (vxn, vyn, wn), (x, y, th), x0y0, lim);
                 }
             }
             part
@@ -148,51 +148,72 @@ impl World {
     }
 }
 
-/// Half kick of grain `a` with forces (fx, fy, tq): returns the new (vx, vy, ω), books a
-/// driver's work on a prescribed grain (1/m = 0) in `part`.
+/// Half kick of grains `lo..hi` with the chunk's 1/m, 1/I and forces (fx, fy, tq):
+/// v ← v + (h/m) F, ω ← ω + (h/I) M, in loops without branches that run several grains
+/// at once;
+/// books a driver's work on prescribed grains (1/m = 0) in `part`, in grain order. Returns
+/// the chunk's new (vx, vy, ω).
 ///
 /// # Safety
-/// `a` is in bounds of the arrays behind `vx`, `vy`, `w`, and no other thread writes index `a`.
+/// `lo..hi` is in bounds of every array, and no other thread touches those indices of
+/// `vx`, `vy`, `w` meanwhile.
 #[inline(always)]
-pub(crate) unsafe fn kick_one<const L: bool>(a: usize, h: Real, im: Real, ii: Real, (fx, fy, tq): (Real, Real, Real), (vx, vy, w): (Ptr<Real>, Ptr<Real>, Ptr<Real>), part: &mut Partial) -> (Real, Real, Real) {
-    unsafe {
-        let (vxa, vya, wa) = (vx.get(a), vy.get(a), w.get(a));
-        if L && im == 0.0 {
-            // driver keeps the prescribed velocity against contacts and gravity
-            part.ledger.external_work -= h * (fx * vxa + fy * vya + tq * wa);
+pub(crate) unsafe fn kick_range<'a, const L: bool>(lo: usize, hi: usize, h: Real, (im, ii): (&[Real], &[Real]), (fx, fy, tq): (&[Real], &[Real], &[Real]), (vx, vy, w): (Ptr<Real>, Ptr<Real>, Ptr<Real>), part: &mut Partial) -> (&'a mut [Real], &'a mut [Real], &'a mut [Real]) {
+    let n = hi - lo;
+    let (im, ii) = (&im[..n], &ii[..n]);
+    let (fx, fy, tq) = (&fx[..n], &fy[..n], &tq[..n]);
+    // SAFETY: caller's contract
+    let (vx, vy, w) = unsafe { (std::slice::from_raw_parts_mut(vx.0.add(lo), n), std::slice::from_raw_parts_mut(vy.0.add(lo), n), std::slice::from_raw_parts_mut(w.0.add(lo), n)) };
+    if L {
+        for a in 0..n {
+            if im[a] == 0.0 {
+                // driver keeps the prescribed velocity against contacts and gravity
+                part.ledger.external_work -= h * (fx[a] * vx[a] + fy[a] * vy[a] + tq[a] * w[a]);
+            }
         }
-        let vxn = vxa + h * im * fx;
-        let vyn = vya + h * im * fy;
-        let wn = wa + h * ii * tq;
-        vx.set(a, vxn);
-        vy.set(a, vyn);
-        w.set(a, wn);
-        (vxn, vyn, wn)
     }
+    for a in 0..n {
+        vx[a] += h * im[a] * fx[a];
+        vy[a] += h * im[a] * fy[a];
+        w[a] += h * ii[a] * tq[a];
+    }
+    (vx, vy, w)
 }
 
-/// Drift of grain `a`: x ← x + Δt v, (if `THETA`) θ ← θ + Δt ω; returns whether it moved
-/// more than √lim from its position at the last neighbour build (if known).
+/// Drift of the grains of a chunk starting at `lo` (new velocities `vx`, `vy`, `w`):
+/// x ← x + Δt v, (if `THETA`) θ ← θ + Δt ω; returns
+/// whether one moved more than √lim from its position at the last neighbour build.
 ///
 /// # Safety
-/// `a` is in bounds of the arrays behind `x`, `y`, `th`, and no other thread writes index `a`.
+/// As [`kick_range`] for `x`, `y`, `th`.
 #[inline(always)]
-unsafe fn drift_one<const THETA: bool>(a: usize, dt: Real, (vx, vy, w): (Real, Real, Real), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
-    unsafe {
-        let xa = x.get(a) + dt * vx;
-        let ya = y.get(a) + dt * vy;
-        x.set(a, xa);
-        y.set(a, ya);
-        if THETA {
-            th.set(a, th.get(a) + dt * w);
+unsafe fn drift_range<const THETA: bool>(lo: usize, dt: Real, (vx, vy, w): (&mut [Real], &mut [Real], &mut [Real]), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
+    let n = vx.len();
+    let (vy, w) = (&vy[..n], &w[..n]);
+    // SAFETY: caller's contract
+    let (x, y) = unsafe { (std::slice::from_raw_parts_mut(x.0.add(lo), n), std::slice::from_raw_parts_mut(y.0.add(lo), n)) };
+    for a in 0..n {
+        x[a] += dt * vx[a];
+        y[a] += dt * vy[a];
+    }
+    if THETA {
+        // SAFETY: caller's contract
+        let th = unsafe { std::slice::from_raw_parts_mut(th.0.add(lo), n) };
+        for a in 0..n {
+            th[a] += dt * w[a];
         }
-        match x0y0 {
-            Some((x0, y0)) => {
-                let (dx, dy) = (xa - x0[a], ya - y0[a]);
-                dx * dx + dy * dy > lim
+    }
+    match x0y0 {
+        Some((x0, y0)) => {
+            let (x0, y0) = (&x0[lo..lo + n], &y0[lo..lo + n]);
+            let mut moved = false;
+            for a in 0..n {
+                let (dx, dy) = (x[a] - x0[a], y[a] - y0[a]);
+                moved |= dx * dx + dy * dy > lim;
             }
-            None => false,
+            moved
         }
+        None => false,
     }
 }
 

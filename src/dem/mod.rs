@@ -31,6 +31,7 @@ pub mod shear;
 pub mod compress;
 pub mod pile;
 pub mod bench;
+pub mod team;
 
 pub use contact_law::{Law, LawCoeffs, PairIn, PairOut};
 pub use energy::{Balance, Energies, Ledger};

@@ -188,7 +188,7 @@ pub fn shear_test(radii: &[Real], params: &DemParams, sp: &ShearParams) -> Resul
     p.gravity = 0.0;
     p.ledger = false;
     // The pressures are independent cells: run them side by side (each cell is small and
-    // steps on one thread, PAR_MIN_ITEMS); results in pressure order, identical to a
+    // steps on one thread, team::TEAM_MIN_GRAINS); results in pressure order, identical to a
     // sequential loop.
     let points = sp.pressures.par_iter().map(|&pres| shear_point(radii, &p, sp, pres)).collect::<Result<Vec<_>, DemError>>()?;
     // fits

@@ -16,7 +16,7 @@
 //! chunk by chunk in chunk order. Nothing depends on the thread count, so results are
 //! bit-identical for any number of threads.
 
-use crate::dem::contact_law::{Law, LawCoeffs, PairIn, RollDashpot};
+use crate::dem::contact_law::{BATCH, Law, LawCoeffs, PairBatch, PairBatchOut, PairIn, RollDashpot};
 use crate::dem::energy::{Balance, Energies, Ledger};
 use crate::dem::error::DemError;
 use crate::dem::neighbors::NeighborList;
@@ -25,9 +25,8 @@ use crate::dem::preflight::{Preflight, SizeClasses, preflight};
 use crate::dem::state::{ContactState, State};
 use crate::dem::timers::PhaseTimers;
 use crate::dem::walls::Wall;
-use crate::dem::integrate::kick_one;
+use crate::dem::integrate::kick_range;
 use crate::math::{Real, Vec2};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -35,6 +34,11 @@ use std::time::Instant;
 pub const PAIR_CHUNK: usize = 512;
 /// Grains per parallel work unit.
 pub const GRAIN_CHUNK: usize = 256;
+/// Steps for which [`World::run`] keeps its choice between stepping a world alone and with
+/// a thread team, made by timing [`TEAM_PROBE`] steps each way.
+pub const TEAM_SEGMENT: u64 = 4096;
+/// See [`TEAM_SEGMENT`].
+pub const TEAM_PROBE: u64 = 128;
 /// Most walls a scene can have.
 pub const MAX_WALLS: usize = 8;
 
@@ -42,6 +46,11 @@ pub const MAX_WALLS: usize = 8;
 pub(crate) struct Ptr<T>(pub(crate) *mut T);
 unsafe impl<T> Send for Ptr<T> {}
 unsafe impl<T> Sync for Ptr<T> {}
+impl<T> Ptr<T> {
+    /// Write slot `i` without reading or dropping what was there.
+    #[inline(always)]
+    pub(crate) unsafe fn write(&self, i: usize, v: T) { unsafe { self.0.add(i).write(v) } }
+}
 impl<T: Copy> Ptr<T> {
     #[inline(always)]
     pub(crate) unsafe fn get(self, i: usize) -> T { unsafe { *self.0.add(i) } }
@@ -136,22 +145,32 @@ fn new_max_overlap(part: &mut Partial, overlap: Real, dmin: Real, i: usize, j: u
     part.max_j = j as u32;
 }
 
-/// Below this many items a loop runs on the calling thread. A parallel region costs the
-/// pool a wake-up and a join (futex/sched_yield: at a few hundred grains, twice the time
-/// of the physics, and most of it in the kernel); small scenes gain more from running
-/// whole scenes side by side (ensemble members, sweep points, stages) than from splitting
-/// one step. The chunking — and so every sum's order — is the same either way, so the
-/// results do not depend on which path ran.
-pub const PAR_MIN_ITEMS: usize = 4096;
+/// Below this many grains a world steps on its calling thread (the team's threshold,
+/// [`crate::dem::team::TEAM_MIN_GRAINS`]; the name the stage drivers refer to).
+pub const PAR_MIN_ITEMS: usize = crate::dem::team::TEAM_MIN_GRAINS;
 
+/// `f(lo, hi)` for each chunk of `chunk` items of `0..n`, results in chunk order in `out`:
+/// shared out on the world's thread team inside a [`World::run`] that has one (see
+/// [`crate::dem::team`]), else in order on this thread. The chunking — and so every
+/// sum's order — is the same either way, so results do not depend on the thread count.
 pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl Fn(usize, usize) -> T + Sync + Send) {
     let nc = n.div_ceil(chunk);
-    if n < PAR_MIN_ITEMS {
-        out.clear();
-        out.extend((0..nc).map(|c| f(c * chunk, ((c + 1) * chunk).min(n))));
-    } else {
-        (0..nc).into_par_iter().map(|c| f(c * chunk, ((c + 1) * chunk).min(n))).collect_into_vec(out);
-    }
+    out.clear();
+    out.reserve(nc);
+    let dst = Ptr(out.as_mut_ptr());
+    crate::dem::team::for_chunks(nc, &|c| {
+        let v = f(c * chunk, ((c + 1) * chunk).min(n));
+        // SAFETY: each chunk index is run exactly once, into reserved capacity
+        unsafe { dst.write(c, v) };
+    });
+    // SAFETY: every slot 0..nc was written above (for_chunks returns when all are done)
+    unsafe { out.set_len(nc) };
+}
+
+thread_local! {
+    /// Lanes of the pair pass's batches, one set per thread (kept between chunks: filling
+    /// 20 kB with zeros per chunk cost 2 % of the step).
+    static PAIR_SCRATCH: std::cell::Cell<Option<Box<(PairBatch, PairBatchOut)>>> = const { std::cell::Cell::new(None) };
 }
 
 /// Contact histories of a settled state (see [`World::saved_histories`]).
@@ -201,6 +220,16 @@ pub struct World {
     pub paths: crate::dem::timers::PathCounts,
     /// Last step's diagnostics.
     pub info: StepInfo,
+    /// Below this many grains the world steps on its calling thread even in a
+    /// multi-thread pool (default [`crate::dem::team::TEAM_MIN_GRAINS`]; results are the
+    /// same either way — `bench dem-crossover` sets it to measure the crossover).
+    pub team_min_grains: usize,
+    /// Whether `run` times steps alone against steps with the team and keeps the faster
+    /// (default true; `bench dem-crossover` turns it off to time the team itself).
+    pub team_probe: bool,
+    /// The probe's choice (team or alone) and the step until which it holds.
+    pub(crate) team_on: bool,
+    pub(crate) team_until: u64,
     pub(crate) nl: NeighborList,
     pub(crate) wall_hist: Vec<ContactState>,
     pub(crate) wall_cn: Vec<Real>,
@@ -255,6 +284,10 @@ impl World {
             timers: PhaseTimers::default(),
             paths: Default::default(),
             info: StepInfo::default(),
+            team_min_grains: crate::dem::team::TEAM_MIN_GRAINS,
+            team_probe: true,
+            team_on: false,
+            team_until: 0,
             nl: NeighborList::default(),
             wall_hist: Vec::new(),
             wall_cn: Vec::new(),
@@ -398,13 +431,55 @@ impl World {
             self.compute_forces::<R, IMP, L, false>(0.0);
             self.forces_valid = true;
         }
+        let team = ng >= self.team_min_grains && rayon::current_num_threads() > 1;
         let mut res = Ok(());
-        for _ in 0..n {
-            res = self.step_with::<R, IMP, L>();
-            if res.is_err() { break; }
+        let mut left = n;
+        while left > 0 && res.is_ok() {
+            if team && self.team_probe && self.steps >= self.team_until && left >= 2 * TEAM_PROBE {
+                // Time TEAM_PROBE steps alone, then as many with the thread team, and keep
+                // the faster for the next TEAM_SEGMENT steps (the machine's load changes;
+                // results are the same either way).
+                let t0 = Instant::now();
+                res = self.steps_with::<R, IMP, L>(TEAM_PROBE);
+                let solo = t0.elapsed();
+                if res.is_err() { break; }
+                let k = (left - 2 * TEAM_PROBE).min(TEAM_SEGMENT);
+                let mut ran = 0;
+                res = crate::dem::team::with_team(true, || {
+                    // the first team steps wait for the helpers to wake and fill their
+                    // caches: time the team after TEAM_PROBE / 4 of them
+                    self.steps_with::<R, IMP, L>(TEAM_PROBE / 4)?;
+                    let t1 = Instant::now();
+                    self.steps_with::<R, IMP, L>(TEAM_PROBE - TEAM_PROBE / 4)?;
+                    let team = t1.elapsed().as_secs_f64() / (TEAM_PROBE - TEAM_PROBE / 4) as f64;
+                    // the team must be clearly faster: a short probe is noisy
+                    self.team_on = team < 0.9 * solo.as_secs_f64() / TEAM_PROBE as f64;
+                    // a lost probe is retried sooner (a busy moment, or noise)
+                    self.team_until = self.steps + if self.team_on { TEAM_SEGMENT } else { TEAM_SEGMENT / 4 };
+                    if !self.team_on {
+                        crate::dem::team::dismiss();
+                    }
+                    ran = k.min(self.team_until - self.steps);
+                    self.steps_with::<R, IMP, L>(ran)
+                });
+                left -= 2 * TEAM_PROBE + ran;
+            } else {
+                let on = team && (!self.team_probe || self.team_on);
+                // until the choice expires (then probe again), else to the end
+                let k = if team && self.team_probe && self.team_until > self.steps { left.min(self.team_until - self.steps) } else { left };
+                res = crate::dem::team::with_team(on, || self.steps_with::<R, IMP, L>(k));
+                left -= k;
+            }
         }
         self.walls_seen.clone_from(&self.walls);
         res
+    }
+
+    fn steps_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
+        for _ in 0..n {
+            self.step_with::<R, IMP, L>()?;
+        }
+        Ok(())
     }
 
     fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self) -> Result<(), DemError> {
@@ -498,66 +573,91 @@ impl World {
                 todo[n_todo] = (k - lo) as u16;
                 n_todo += usize::from(work);
             }
-            // Pass 2: those pairs in order, with the same arithmetic as a single pass.
-            for &o in &todo[..n_todo] {
-                let k = lo + o as usize;
-                let (i, j) = (pi[k] as usize, pj[k] as usize);
-                let dx = x[i] - (x[j] + shift[k] * lx);
-                let dy = y[i] - y[j];
-                let rsq = dx * dx + dy * dy;
-                let radsum = r[i] + r[j];
-                // separated → drop history (once)
-                if rsq >= radsum * radsum {
+            // Pass 2: those pairs in order, with the same arithmetic as a single pass, in
+            // batches: (a) gather each pair's inputs into lanes, (b) evaluate the law on
+            // all lanes at once (`Law::eval_pairs`, SIMD), (c) store the results and book
+            // the sums pair by pair. The ledger sums run in registers (same order of
+            // additions as into `part`).
+            let (mut led_n, mut led_t, mut led_r) = (0.0, 0.0, 0.0);
+            let mut n_roll = 0usize;
+            let mut scratch = PAIR_SCRATCH.take().unwrap_or_else(|| Box::new((PairBatch::default(), PairBatchOut::default())));
+            let (b, bo) = &mut *scratch;
+            for batch in todo[..n_todo].chunks(BATCH) {
+                let nb = batch.len();
+                // (a) gather
+                for (l, &o) in batch.iter().enumerate() {
+                    let k = lo + o as usize;
+                    let (i, j) = (pi[k] as usize, pj[k] as usize);
+                    let dx = x[i] - (x[j] + shift[k] * lx);
+                    let dy = y[i] - y[j];
+                    b.dx[l] = dx;
+                    b.dy[l] = dy;
+                    b.rsq[l] = dx * dx + dy * dy;
+                    b.radsum[l] = r[i] + r[j];
+                    b.dvx[l] = vx[i] - vx[j];
+                    b.dvy[l] = vy[i] - vy[j];
+                    b.w_i[l] = w[i];
+                    b.w_j[l] = w[j];
+                    b.r_i[l] = r[i];
+                    b.r_j[l] = r[j];
+                    b.r_roll[l] = rr[k];
+                    b.cn[l] = cn[k];
+                    let h = unsafe { hist.get(k) };
+                    b.h[0][l] = h.tangential;
+                    b.h[1][l] = h.rolling;
+                    b.h[2][l] = h.ft;
+                    b.h[3][l] = h.mr;
+                }
+                // (b) the law on every lane (separated lanes give unused numbers)
+                Law::<R, IMP, L>::eval_pairs(&coeffs, b, bo, nb, dt);
+                // (c) store, in pair order
+                for (l, &o) in batch.iter().enumerate() {
+                    let k = lo + o as usize;
+                    let (i, j) = (pi[k] as usize, pj[k] as usize);
+                    let radsum = b.radsum[l];
                     unsafe {
-                        live.set(k, 0);
-                        let h = hist.get(k);
-                        if h != ContactState::default() {
-                            if L {
-                                let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
-                                part.ledger.tangential += et;
-                                part.ledger.rolling += er;
+                        // separated → drop history (once)
+                        if b.rsq[l] >= radsum * radsum {
+                            live.set(k, 0);
+                            let h = hist.get(k);
+                            if h != ContactState::default() {
+                                if L {
+                                    let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
+                                    led_t += et;
+                                    led_r += er;
+                                }
+                                hist.set(k, ContactState::default());
                             }
-                            hist.set(k, ContactState::default());
+                            pout.set(k, [0.0; 4]);
+                            continue;
                         }
-                        pout.set(k, [0.0; 4]);
-                    }
-                    continue;
-                }
-                let d = rsq.sqrt();
-                let inv = 1.0 / d;
-                let overlap = radsum - d;
-                let dmin = 2.0 * r[i].min(r[j]);
-                if overlap > part.max_overlap * dmin {
-                    new_max_overlap(&mut part, overlap, dmin, i, j);
-                }
-                let pin = PairIn {
-                    n: Vec2::new(dx * inv, dy * inv),
-                    overlap,
-                    v_rel: Vec2::new(vx[i] - vx[j], vy[i] - vy[j]),
-                    w_i: w[i],
-                    w_j: w[j],
-                    arm_i: r[i],
-                    arm_j: r[j],
-                    r_roll: rr[k],
-                    cn: cn[k],
-                };
-                unsafe {
-                    live.set(k, 1);
-                    let mut h = hist.get(k);
-                    let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
-                    hist.set(k, h);
-                    pout.set(k, [o.f.x, o.f.y, o.t_i, o.t_j]);
-                    if IMP && o.roll.c > 0.0 {
-                        ritems.set(lo + part.n_roll[0] as usize, RollItem { i: i as u32, j: j as u32, d: o.roll });
-                        part.n_roll[0] += 1;
-                    }
-                    if L {
-                        part.ledger.normal_damping += o.work.normal;
-                        part.ledger.tangential += o.work.tangential;
-                        part.ledger.rolling += o.work.rolling;
+                        let overlap = bo.overlap[l];
+                        let dmin = 2.0 * r[i].min(r[j]);
+                        if overlap > part.max_overlap * dmin {
+                            new_max_overlap(&mut part, overlap, dmin, i, j);
+                        }
+                        live.set(k, 1);
+                        hist.set(k, ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] });
+                        pout.set(k, [bo.fx[l], bo.fy[l], bo.t_i[l], bo.t_j[l]]);
+                        if IMP {
+                            // written always, kept (counted) only with a dashpot: no branch
+                            let d = RollDashpot { c: bo.roll[0][l], m_spring: bo.roll[1][l], m_max: bo.roll[2][l] };
+                            ritems.set(lo + n_roll, RollItem { i: i as u32, j: j as u32, d });
+                            n_roll += usize::from(d.c > 0.0);
+                        }
+                        if L {
+                            led_n += bo.work[0][l];
+                            led_t += bo.work[1][l];
+                            led_r += bo.work[2][l];
+                        }
                     }
                 }
             }
+            PAIR_SCRATCH.set(Some(scratch));
+            part.ledger.normal_damping += led_n;
+            part.ledger.tangential += led_t;
+            part.ledger.rolling += led_r;
+            part.n_roll[0] = n_roll as u32;
             part
         });
         let mut total = Partial::default();
@@ -692,8 +792,10 @@ impl World {
             // (3) second half kick with the complete forces
             let mut kpart = Partial::default();
             if KICK {
-                for a in lo..hi {
-                    unsafe { kick_one::<L>(a, h, inv_m[a], inv_i[a], (fx.get(a), fy.get(a), tq.get(a)), (vx, vy, w), &mut kpart) };
+                // SAFETY: this chunk's grains, written above by this chunk only
+                unsafe {
+                    let f = |p: Ptr<Real>| std::slice::from_raw_parts(p.0.add(lo), hi - lo);
+                    kick_range::<L>(lo, hi, h, (&inv_m.0[lo..hi], &inv_i.0[lo..hi]), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
                 }
             }
             let t3 = Instant::now();
