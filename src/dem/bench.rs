@@ -212,6 +212,7 @@ pub fn run(case: BenchCase, threads: usize, steps: u64, dt: Option<Real>) -> Res
         }
         w.run(200)?; // warm-up
         w.timers = PhaseTimers::default();
+        w.timing = true; // the phase table of `--phases`
         let b0 = w.rebuilds();
         let c0 = process_cpu_s();
         let t0 = Instant::now();

@@ -142,7 +142,7 @@ pub struct CollapseResult {
     pub dt: Real,
     /// Wall time of the run [s].
     pub wall_s: f64,
-    /// Phase timers.
+    /// Phase timers (zero unless the world kept them: `World::timing`).
     pub timers: PhaseTimers,
     /// Pre-flight table of the run.
     pub preflight: Preflight,

@@ -113,7 +113,7 @@ impl World {
     /// (module doc), grain pairs in list order, then grain–wall contacts.
     fn rolling_dashpot<const L: bool>(&mut self) {
         self.paths.rolling_dashpot += 1;
-        let t0 = std::time::Instant::now();
+        let t0 = crate::dem::timers::Clock::now(self.timing);
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;
         let (w, inv_i, inertia) = (&mut s.w[..], &s.inv_i[..], &s.inertia[..]);
@@ -142,7 +142,7 @@ impl World {
             self.ledger += led;
         }
         // reported as its own phase (the caller's timer counts it under `integrate`)
-        let el = t0.elapsed().as_secs_f64();
+        let el = t0.elapsed();
         self.timers.rolling += el;
         self.timers.integrate -= el;
     }

@@ -1,5 +1,7 @@
-//! Per-phase wall-clock counters (rapier `stages_counters.rs`): always on, read by the
-//! work-precision report and the benchmark.
+//! Per-phase wall-clock counters (rapier `stages_counters.rs`), kept when a world asks for
+//! them (`World::timing`: `bench dem` does; pipeline runs do not, so their steps make no
+//! clock calls — the vDSO `clock_gettime` of ~10 reads per step was ≈ 2 % of a
+//! few-hundred-grain step, e.g. the calibration's shear test).
 
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -29,6 +31,27 @@ pub struct PhaseTimers {
 impl PhaseTimers {
     /// Sum of all phases [s].
     pub fn total(&self) -> f64 { self.neighbors + self.contacts + self.gather + self.walls + self.integrate + self.rolling + self.ledger + self.watchdog }
+}
+
+/// A phase clock reading: the time when the world keeps phase timers, else nothing.
+#[derive(Debug, Clone, Copy)]
+pub struct Clock(Option<Instant>);
+
+impl Clock {
+    /// Read the clock if `on`.
+    #[inline(always)]
+    pub fn now(on: bool) -> Self { Clock(if on { Some(Instant::now()) } else { None }) }
+    /// Seconds from `self` to `later` (0 when either was not read).
+    #[inline(always)]
+    pub fn to(self, later: Clock) -> f64 {
+        match (self.0, later.0) {
+            (Some(a), Some(b)) => (b - a).as_secs_f64(),
+            _ => 0.0,
+        }
+    }
+    /// Seconds since `self` (0 when it was not read).
+    #[inline(always)]
+    pub fn elapsed(self) -> f64 { self.0.map_or(0.0, |t| t.elapsed().as_secs_f64()) }
 }
 
 /// Run `f`, add its duration to `*slot`.

@@ -23,7 +23,7 @@ use crate::dem::neighbors::NeighborList;
 use crate::dem::params::{DemParams, RollingDamping, normal_damping};
 use crate::dem::preflight::{Preflight, SizeClasses, preflight};
 use crate::dem::state::{ContactState, State};
-use crate::dem::timers::PhaseTimers;
+use crate::dem::timers::{Clock, PhaseTimers};
 use crate::dem::walls::Wall;
 use crate::dem::integrate::kick_range;
 use crate::math::{Real, Vec2};
@@ -227,6 +227,8 @@ pub struct World {
     /// Whether `run` times steps alone against steps with the team and keeps the faster
     /// (default true; `bench dem-crossover` turns it off to time the team itself).
     pub team_probe: bool,
+    /// Keep the phase timers (`timers`; default false: no clock calls in the steps).
+    pub timing: bool,
     /// The probe's choice (team or alone) and the step until which it holds.
     pub(crate) team_on: bool,
     pub(crate) team_until: u64,
@@ -286,6 +288,7 @@ impl World {
             info: StepInfo::default(),
             team_min_grains: crate::dem::team::TEAM_MIN_GRAINS,
             team_probe: true,
+            timing: false,
             team_on: false,
             team_until: 0,
             nl: NeighborList::default(),
@@ -484,26 +487,27 @@ impl World {
 
     fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self) -> Result<(), DemError> {
         let dt = self.params.dt;
-        let t0 = Instant::now();
+        let on = self.timing;
+        let t0 = Clock::now(on);
         let moved = self.integrate_first_half::<IMP, L>();
-        let t1 = Instant::now();
-        self.timers.integrate += (t1 - t0).as_secs_f64();
+        let t1 = Clock::now(on);
+        self.timers.integrate += t0.to(t1);
         if moved { self.refresh_neighbors(); }
-        let t2 = Instant::now();
-        self.timers.neighbors += (t2 - t1).as_secs_f64();
+        let t2 = Clock::now(on);
+        self.timers.neighbors += t1.to(t2);
         // contacts, walls and the second half kick (fused per grain chunk)
         self.compute_forces::<R, IMP, L, true>(dt);
-        let t3 = Instant::now();
+        let t3 = Clock::now(on);
         self.integrate_second_half::<IMP, L>();
         self.t += dt;
         self.steps += 1;
-        let t4 = Instant::now();
-        self.timers.integrate += (t4 - t3).as_secs_f64();
+        let t4 = Clock::now(on);
+        self.timers.integrate += t3.to(t4);
         let wd = self.params.watchdog.every;
         if wd > 0 && self.steps % wd == 0 {
             self.watchdog()?;
         }
-        self.timers.watchdog += t4.elapsed().as_secs_f64();
+        self.timers.watchdog += t4.elapsed();
         Ok(())
     }
 
@@ -513,19 +517,20 @@ impl World {
     /// histories advance by `dt` (0 for the priming evaluation). With `KICK`, the second
     /// half kick follows in the same per-chunk pass (see [`World::grain_pass`]).
     fn compute_forces<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) {
-        let t0 = Instant::now();
+        let on = self.timing;
+        let t0 = Clock::now(on);
         (self.paths.rolling_forces, self.paths.ledger) = (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
         let p = self.compute_contacts::<R, IMP, L>(dt);
-        let t1 = Instant::now();
-        self.timers.contacts += (t1 - t0).as_secs_f64();
+        let t1 = Clock::now(on);
+        self.timers.contacts += t0.to(t1);
         let (q, k) = self.grain_pass::<R, IMP, L, KICK>(dt);
-        let t2 = Instant::now();
+        let t2 = Clock::now(on);
         self.ledger_phase::<L>(&p, &q);
         if KICK && L {
             // the kick's partial after the contacts', as when the kick was its own pass
             self.ledger += k.ledger;
         }
-        self.timers.ledger += t2.elapsed().as_secs_f64();
+        self.timers.ledger += t2.elapsed();
     }
 
     fn ledger_phase<const L: bool>(&mut self, p: &Partial, q: &Partial) {
@@ -676,7 +681,8 @@ impl World {
     /// order), so the results are bit-identical to them. Returns the wall partial (with the
     /// released inactive walls first) and the kick partial, each merged in chunk order.
     fn grain_pass<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) -> (Partial, Partial) {
-        let clock = Instant::now();
+        let on = self.timing;
+        let clock = Clock::now(on);
         let mut total = Partial::default();
         self.release_inactive_walls::<R, IMP, L>(&mut total);
         let any_wall = self.walls.iter().any(|w| w.active);
@@ -698,7 +704,7 @@ impl World {
         let live = Ptr(self.wlive.as_mut_ptr());
         let h = 0.5 * self.params.dt;
         chunked(n, GRAIN_CHUNK, &mut self.gpartials, move |lo, hi| {
-            let t0 = Instant::now();
+            let t0 = Clock::now(on);
             // (1) gather per grain, in increasing pair order
             for a in lo..hi {
                 let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
@@ -723,7 +729,7 @@ impl World {
                     tq.set(a, at);
                 }
             }
-            let t1 = Instant::now();
+            let t1 = Clock::now(on);
             // (2) grain–wall contacts, wall by wall
             let mut part = Partial::default();
             if any_wall {
@@ -788,7 +794,7 @@ impl World {
                     }
                 }
             }
-            let t2 = Instant::now();
+            let t2 = Clock::now(on);
             // (3) second half kick with the complete forces
             let mut kpart = Partial::default();
             if KICK {
@@ -798,10 +804,10 @@ impl World {
                     kick_range::<L>(lo, hi, h, (&inv_m.0[lo..hi], &inv_i.0[lo..hi]), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
                 }
             }
-            let t3 = Instant::now();
-            GrainChunk { walls: part, kick: kpart, secs: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()] }
+            let t3 = Clock::now(on);
+            GrainChunk { walls: part, kick: kpart, secs: [t0.to(t1), t1.to(t2), t2.to(t3)] }
         });
-        let wall_s = clock.elapsed().as_secs_f64();
+        let wall_s = clock.elapsed();
         let nc = self.gpartials.len();
         let mut kick = Partial::default();
         let mut cpu = [0.0; 3];
