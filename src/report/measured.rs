@@ -101,7 +101,7 @@ pub fn pct(e: f64, se: f64) -> String {
 pub fn footer_line(profile: &str, ms: &[&str], errs: &ProfileErrors) -> String {
     let parts: Vec<String> = ms
         .iter()
-        .filter_map(|m| errs.get(*m).map(|e| format!("{} error {} at the {profile} setting {} (one run {:.1} s)", m.to_uppercase(), pct(e.error, e.error_se), e.setting, e.wall_s)))
+        .filter_map(|m| errs.get(*m).map(|e| format!("{} error {} at {}, the setting standing for the {profile} profile (one run {:.1} s)", m.to_uppercase(), pct(e.error, e.error_se), e.setting, e.wall_s)))
         .collect();
     if parts.is_empty() {
         if ms.is_empty() { "measured error: — (no simulation)".to_string() } else { "measured error: — (wp-summary not run for this profile)".to_string() }
@@ -195,7 +195,7 @@ mod tests {
         assert_eq!(methods(&rec), vec!["mpm"]);
         assert_eq!(methods(&json!({ "kind": "dem-collapse", "inputs": [] })), vec!["dem"]);
         let l = footer_line("quick", &["dem"], &errs);
-        assert_eq!(l, "measured (wp-summary): DEM error 7.3 ± 9.4 % at the quick setting k0.01-dt0.05 (one run 10.8 s)");
+        assert_eq!(l, "measured (wp-summary): DEM error 7.3 ± 9.4 % at k0.01-dt0.05, the setting standing for the quick profile (one run 10.8 s)");
         assert_eq!(footer_line("quick", &[], &errs), "measured error: — (no simulation)");
         let j = json_block("quick", &["mpm"], &errs);
         assert_eq!(j["methods"][0]["rel_error"], json!(0.052));

@@ -163,7 +163,9 @@ pub struct Panel {
     pub laws: Vec<String>,
 }
 
-/// The footer's measured error, read from a work-precision stage through the DAG.
+/// A figure's own measured error, read from a work-precision stage through the DAG: the
+/// scalar `profile_error` and a note saying what it measures (the footer line with the
+/// method's error is stamped on every published figure, `report::measured`).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ErrorNote {
@@ -187,7 +189,7 @@ pub struct PlotParams {
     /// Role naming the `reference-laws` stage (needed when a panel lists `laws`).
     #[serde(default)]
     pub laws_from: Option<String>,
-    /// Measured error of this profile for the footer.
+    /// This figure's own measured error (scalar `profile_error` and a note).
     #[serde(default)]
     pub error: Option<ErrorNote>,
 }
@@ -418,24 +420,24 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             },
         });
     }
-    let note = match &p.error {
-        Some(e) => {
-            let inp = ctx.inputs_of(&e.from).first().ok_or_else(|| anyhow!("stage `{}`: error note reads role `{}`, which names no input", ctx.id, e.from))?;
-            let v = inp.scalar(&e.scalar)?;
-            out.scalar("profile_error", v);
-            format!("measured error ({}): {:.3}", e.label, v)
-        }
-        None => String::new(),
-    };
+    // The figure's footer line with the measured error is stamped at publish for every
+    // stage alike (report::measured); the declared error is the figure's own scalar and
+    // note (what exactly was measured), not a second footer line.
+    if let Some(e) = &p.error {
+        let inp = ctx.inputs_of(&e.from).first().ok_or_else(|| anyhow!("stage `{}`: error note reads role `{}`, which names no input", ctx.id, e.from))?;
+        let v = inp.scalar(&e.scalar)?;
+        out.scalar("profile_error", v);
+        out.note(format!("Measured error ({}): {:.3} (`{}` of `{}`).", e.label, v, e.scalar, inp.id));
+    }
     let cols = p.columns.unwrap_or(charts.len().min(2));
-    out.figure("figure", panels_to_svg(&charts, cols, &footer(&ctx.profile, &note))?);
+    out.figure("figure", panels_to_svg(&charts, cols, &footer(&ctx.profile, ""))?);
     Ok(out)
 }
 
 /// Kind `plot`.
 pub const KIND: Kind = Kind {
     name: "plot",
-    version: 1,
+    version: 2,
     about: "a figure declared in YAML: panels of series from upstream tables or sweep scalars, fits and stated laws dashed",
     params: typed::<PlotParams>,
     run,
