@@ -19,11 +19,11 @@
 //! g2p, update_stress and the move of relocate are per-point and run fused chunk by chunk in
 //! one parallel pass (`Solver::step`); their timers are apportioned from per-chunk timings.
 //!
-//! Mohr–Coulomb and μ(I) points are updated in two passes per block of 64: a branch-free
-//! pass (J, moduli, Jaumann trial, the cheap elastic test of `material::mohr_coulomb`), then
-//! the return mapping of the points that failed the test. The long dependency chains of the
-//! first pass then overlap from point to point instead of ending in a data-dependent branch
-//! per point. Bit-identical to calling `material::mohr_coulomb` per point.
+//! Mohr–Coulomb and μ(I) points are updated a block of 64 at a time in lanes, several per
+//! vector instruction, with a branch-free return mapping (`stress_block`): most points are
+//! plastic and the face-or-edge decision is close to random, so a per-point branchy return
+//! mispredicts about once per point. Bit-identical to calling `material::mohr_coulomb` per
+//! point.
 //!
 //! Energy of the wall constraints: booked in `boundary` (friction and normal parts).
 //! Nothing allocates inside a step: the grid, the sort buffers and the per-column work
@@ -40,8 +40,9 @@ use super::boundary::{self, WallWork};
 use super::error::MpmError;
 use super::grid::{Grid, Node};
 use super::material::{self, Elastic, McSurface};
-use super::params::{Model, MpmParams, Scheme, StepRule, Wall};
+use super::params::{MpmParams, Scheme, StepRule, Wall};
 use super::particles::Point;
+use super::stress_block;
 use super::shape::{Stencil, first_node};
 use crate::math::{Mat2, Real, Vec2};
 use rayon::prelude::*;
@@ -448,11 +449,7 @@ impl Solver {
             flip: self.flip,
             dt,
             el: self.elastic,
-            surf: self.surface,
-            model: m.model,
-            d: m.grain_diameter,
-            rho_s: m.grain_density,
-            i_max: m.i_max,
+            frictional: stress_block::Consts::new(dt, self.elastic, self.surface, &m.model, m.grain_diameter, m.grain_density, m.i_max),
         }
     }
 
@@ -567,9 +564,6 @@ impl Solver {
     }
 }
 
-/// Points per block of the two-pass Mohr–Coulomb update (indices fit in a u8).
-const STRESS_BLOCK: usize = 64;
-
 /// Points per chunk of the fused point pass (≈ 50 kB of points: stays in L1/L2). Smaller
 /// than needed for cache reasons so that two threads on shared cores balance well (160
 /// chunks for the 40,000-point bench; 1024 gave ~15 % less at 2 threads, no gain at 1).
@@ -596,11 +590,8 @@ struct Kernel {
     flip: Real,
     dt: Real,
     el: Elastic,
-    surf: McSurface,
-    model: Model,
-    d: Real,
-    rho_s: Real,
-    i_max: Real,
+    /// Constants of the block update of a frictional model (None: elastic model).
+    frictional: Option<stress_block::Consts>,
 }
 
 impl Kernel {
@@ -654,8 +645,7 @@ impl Kernel {
         p.grad_v = l;
     }
 
-    /// Kinematics (J, volume) and the constitutive update of a chunk of points; the model
-    /// is matched once per chunk.
+    /// Kinematics (J, volume) and the constitutive update of a chunk of points.
     ///
     /// Density-scaled moduli: a point uses E V_0/V (ν unchanged), so its P-wave speed
     /// √(M/ρ) is that of the undeformed material whatever its dilation. In the bulk
@@ -663,82 +653,23 @@ impl Kernel {
     /// changes; at a thinning front, points dilate several-fold (J ≈ 8 seen at the a = 0.4
     /// toe) and with constant moduli their wave speed √J c_p would break the CFL limit,
     /// ejecting points. UNSPEC in the chapter; documented here as our choice.
+    ///
+    /// Mohr–Coulomb and μ(I) points are updated a block at a time, several per vector
+    /// instruction, with a branch-free return mapping (`stress_block`, bit-identical to the
+    /// per-point `material` functions).
     #[inline(always)]
     fn update_stress(&self, points: &mut [Point]) {
-        let (el0, surf, dt) = (self.el, self.surf, self.dt);
-        let kin = |p: &mut Point| -> Elastic {
+        if let Some(c) = &self.frictional {
+            stress_block::update(points, c);
+            return;
+        }
+        let (el0, dt) = (self.el, self.dt);
+        for p in points {
             let j = p.j * (Mat2::identity() + p.grad_v * dt).determinant();
             p.j = j;
             p.vol = p.vol0 * j;
-            el0.scaled_by_jacobian(j)
-        };
-        match self.model {
-            Model::Elastic => points.iter_mut().for_each(|p| {
-                let el = kin(p);
-                p.stress = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
-            }),
-            // Two passes per block of points: a branch-free pass (kinematics, elastic trial,
-            // elastic test) whose long dependency chains overlap from point to point, then
-            // the return mapping of the plastic points only. Same arithmetic as
-            // `material::mohr_coulomb` (bit-identical); elastic points skip the no-op
-            // `eps_p += 0`, `work_p += 0`.
-            Model::MohrCoulomb => {
-                for block in points.chunks_mut(STRESS_BLOCK) {
-                    let mut plastic = [0u8; STRESS_BLOCK];
-                    let mut radius = [0.0; STRESS_BLOCK];
-                    let mut n = 0usize;
-                    for (i, p) in block.iter_mut().enumerate() {
-                        let el = kin(p);
-                        let tr = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
-                        let (elastic, r) = material::mc_elastic_test(&tr, &surf);
-                        p.stress = tr;
-                        plastic[n] = i as u8;
-                        radius[n] = r;
-                        n += usize::from(!elastic);
-                    }
-                    for (&i, &r) in plastic[..n].iter().zip(&radius[..n]) {
-                        let p = &mut block[i as usize];
-                        let el = el0.scaled_by_jacobian(p.j);
-                        let u = material::mohr_coulomb_plastic(p.stress, &el, &surf, r);
-                        p.stress = u.stress;
-                        p.eps_p += u.d_eps_p;
-                        p.work_p += u.plastic_work * p.vol;
-                    }
-                }
-            }
-            // Same two passes as Mohr–Coulomb, with the point's surface kept for pass 2.
-            model @ (Model::MuILinear { .. } | Model::MuIJop { .. }) => {
-                for block in points.chunks_mut(STRESS_BLOCK) {
-                    let mut plastic = [0u8; STRESS_BLOCK];
-                    let mut radius = [0.0; STRESS_BLOCK];
-                    let mut surfs = [surf; STRESS_BLOCK];
-                    let mut n = 0usize;
-                    for (k, p) in block.iter_mut().enumerate() {
-                        let el = kin(p);
-                        let gd = material::shear_rate(&p.grad_v);
-                        let i = material::inertial_number(gd, p.stress.pressure(), self.d, self.rho_s, self.i_max);
-                        let mu = material::mu_of_i(&model, i).unwrap_or(0.0);
-                        p.inertial = i;
-                        p.mu = mu;
-                        let tr = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
-                        let sp = surf.with_mu(mu);
-                        let (elastic, r) = material::mc_elastic_test(&tr, &sp);
-                        p.stress = tr;
-                        plastic[n] = k as u8;
-                        radius[n] = r;
-                        surfs[n] = sp;
-                        n += usize::from(!elastic);
-                    }
-                    for ((&k, &r), sp) in plastic[..n].iter().zip(&radius[..n]).zip(&surfs[..n]) {
-                        let p = &mut block[k as usize];
-                        let el = el0.scaled_by_jacobian(p.j);
-                        let u = material::mohr_coulomb_plastic(p.stress, &el, sp, r);
-                        p.stress = u.stress;
-                        p.eps_p += u.d_eps_p;
-                        p.work_p += u.plastic_work * p.vol;
-                    }
-                }
-            }
+            let el = el0.scaled_by_jacobian(j);
+            p.stress = material::elastic_trial(&p.stress, &p.grad_v, dt, &el);
         }
     }
 
