@@ -98,6 +98,12 @@ impl Default for Lanes {
 
 /// Update the stress of `points` (kinematics and constitutive law) over the step of `k`.
 pub(crate) fn update(points: &mut [Point], k: &Consts) {
+    update_with(points, k, run)
+}
+
+/// [`update`] with a given build of the lane loop.
+#[inline(always)]
+fn update_with(points: &mut [Point], k: &Consts, run: impl Fn(&mut Lanes, &Consts)) {
     let mut b = Lanes::default();
     for block in points.chunks_mut(LANES) {
         for (i, p) in block.iter().enumerate() {
@@ -382,6 +388,25 @@ mod tests {
         u.region
     }
 
+    type Build = fn(&mut Lanes, &Consts);
+
+    /// The builds of the lane loop: baseline, and AVX2 and AVX-512 where the CPU has them.
+    fn builds() -> Vec<(&'static str, Build)> {
+        let mut v: Vec<(&'static str, Build)> = vec![("baseline", run_lanes)];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: only called on a CPU with the feature
+                v.push(("avx2", |b, k| unsafe { run_avx2(b, k) }));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: only called on a CPU with the feature
+                v.push(("avx512", |b, k| unsafe { run_avx512(b, k) }));
+            }
+        }
+        v
+    }
+
     fn bits(p: &Point) -> Vec<u64> {
         [p.j, p.vol, p.stress.xx, p.stress.yy, p.stress.xy, p.stress.zz, p.eps_p, p.work_p, p.mu, p.inertial]
             .iter()
@@ -442,9 +467,17 @@ mod tests {
                 for p in &mut want {
                     *regions.entry(format!("{:?}", per_point(p, &k, model))).or_default() += 1;
                 }
+                // every build of the lane loop this CPU can run, and the dispatching one
+                for (name, build) in builds() {
+                    let mut got = pts.clone();
+                    update_with(&mut got, &k, build);
+                    for (n, (p, w)) in got.iter().zip(&want).enumerate() {
+                        assert_eq!(bits(p), bits(w), "{name}: {model:?} {mc:?} point {n}: {p:?} vs {w:?}");
+                    }
+                }
                 update(&mut pts, &k);
                 for (n, (p, w)) in pts.iter().zip(&want).enumerate() {
-                    assert_eq!(bits(p), bits(w), "{model:?} {mc:?} point {n}: {p:?} vs {w:?}");
+                    assert_eq!(bits(p), bits(w), "update: {model:?} {mc:?} point {n}: {p:?} vs {w:?}");
                 }
             }
         }
