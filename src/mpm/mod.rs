@@ -34,6 +34,7 @@ pub mod pile;
 pub mod preflight;
 pub mod shape;
 pub mod solver;
+mod transfer;
 pub mod watchdog;
 
 pub use energy::{Energies, energies};

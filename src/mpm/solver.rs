@@ -38,11 +38,12 @@
 
 use super::boundary::{self, WallWork};
 use super::error::MpmError;
-use super::grid::{Grid, Node};
+use super::grid::Grid;
 use super::material::{self, Elastic, McSurface};
 use super::params::{Model, MpmParams, Scheme, StepRule, Wall};
 use super::particles::Point;
-use super::shape::{Stencil, first_node};
+use super::shape::first_node;
+use super::transfer::{Geom, simd_available};
 use crate::math::{Mat2, Real, Vec2};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -143,6 +144,8 @@ pub struct Solver {
     cursor: Vec<u32>,
     col_work: Vec<(WallWork, Real)>,
     sorted_len: usize,
+    /// Whether the transfers use AVX2 (`transfer::simd_available`; same results).
+    simd: bool,
     /// Whether m, p, f of every node are zero (the previous step cleared them on its last
     /// pass over the grid, so `reset_grid` has nothing to do).
     grid_clean: bool,
@@ -174,6 +177,7 @@ impl Solver {
             cursor: Vec::with_capacity(nb),
             col_work: vec![(WallWork::default(), 0.0); nx],
             sorted_len: usize::MAX,
+            simd: simd_available(),
             grid_clean: false,
         })
     }
@@ -281,7 +285,7 @@ impl Solver {
     /// forces (`FULL`); otherwise momentum only (MUSL re-map, mass already there).
     fn p2g<const FULL: bool>(&mut self, points: &[Point]) {
         let ny = self.grid.ny;
-        let (ox, oy, h, lp) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.lp);
+        let geo = self.geom();
         let g = self.params.gravity;
         let order = &self.order;
         let start = &self.band_start;
@@ -308,33 +312,15 @@ impl Solver {
                 if b >= nb {
                     return;
                 }
-                let col0 = b * BAND;
-                for &pi in &order[start[b] as usize..start[b + 1] as usize] {
-                    let p = &points[pi as usize];
-                    let st = Stencil::at(p.x.x, p.x.y, p.base, ox, oy, h, lp);
-                    let m = p.mass;
-                    let mv = p.v * m;
-                    let (vxx, vyy, vxy) = (-p.vol * p.stress.xx, -p.vol * p.stress.yy, -p.vol * p.stress.xy);
-                    let mg = -m * g;
-                    for a in 0..3 {
-                        let base = (st.i0 + a - col0) * ny + st.j0;
-                        let (wa, da) = (st.wx[a], st.dx[a]);
-                        let column = &mut chunk[base..base + 3];
-                        for (bb, n) in column.iter_mut().enumerate() {
-                            let w = wa * st.wy[bb];
-                            let gx = da * st.wy[bb];
-                            let gy = wa * st.dy[bb];
-                            n.p += mv * w;
-                            if FULL {
-                                n.m += w * m;
-                                n.f.x += vxx * gx + vxy * gy;
-                                n.f.y += vxy * gx + vyy * gy + w * mg;
-                            }
-                        }
-                    }
-                }
+                let idx = &order[start[b] as usize..start[b + 1] as usize];
+                geo.scatter::<FULL>(chunk, b * BAND, points, idx, g);
             });
         }
+    }
+
+    fn geom(&self) -> Geom {
+        let (ox, oy, h, ny) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.grid.ny);
+        Geom { ox, oy, h, lp: self.lp, ny, simd: self.simd }
     }
 
     /// Nodal velocity update with damping and wall constraints; books wall work. Clears p and
@@ -400,13 +386,9 @@ impl Solver {
 
     /// MUSL phase g2p on its own: velocity update and step displacement.
     fn g2p(&mut self, points: &mut [Point], dt: Real) {
-        let k = self.kernel(dt);
+        let (geo, flip) = (self.geom(), self.flip);
         let nodes = &self.grid.nodes;
-        points.par_chunks_mut(1024).for_each(|chunk| {
-            for p in chunk {
-                k.g2p(p, nodes, false);
-            }
-        });
+        points.par_chunks_mut(1024).for_each(|chunk| geo.gather::<true, false>(chunk, nodes, flip, dt));
     }
 
     /// MUSL: map the updated point momenta back to the grid and constrain them.
@@ -443,7 +425,7 @@ impl Solver {
             oy: self.grid.origin.y,
             h: self.grid.h,
             lp: self.lp,
-            ny: self.grid.ny,
+            geo: self.geom(),
             nb: self.band_start.len() - 1,
             flip: self.flip,
             dt,
@@ -471,8 +453,8 @@ impl Solver {
             .map(|(pc, kc)| {
                 let t0 = Instant::now();
                 match gather {
-                    Gather::Full => pc.iter_mut().for_each(|p| k.g2p(p, nodes, true)),
-                    Gather::GradientOnly => pc.iter_mut().for_each(|p| k.gradient(p, nodes)),
+                    Gather::Full => k.geo.gather::<true, true>(pc, nodes, k.flip, k.dt),
+                    Gather::GradientOnly => k.geo.gather::<false, true>(pc, nodes, k.flip, k.dt),
                 }
                 let t1 = Instant::now();
                 k.update_stress(pc);
@@ -591,7 +573,7 @@ struct Kernel {
     oy: Real,
     h: Real,
     lp: Real,
-    ny: usize,
+    geo: Geom,
     nb: usize,
     flip: Real,
     dt: Real,
@@ -604,56 +586,6 @@ struct Kernel {
 }
 
 impl Kernel {
-    /// g2p for one point: FLIP/PIC velocity, displacement, optionally the velocity gradient.
-    #[inline(always)]
-    fn g2p(&self, p: &mut Point, nodes: &[Node], want_grad: bool) {
-        let st = Stencil::at(p.x.x, p.x.y, p.base, self.ox, self.oy, self.h, self.lp);
-        let ny = self.ny;
-        let mut vg = Vec2::zeros();
-        let mut dv = Vec2::zeros();
-        let mut l = Mat2::zeros();
-        for a in 0..3 {
-            let base = (st.i0 + a) * ny + st.j0;
-            for (b, n) in nodes[base..base + 3].iter().enumerate() {
-                let w = st.wx[a] * st.wy[b];
-                vg += n.v * w;
-                dv += n.dv * w;
-                if want_grad {
-                    let gx = st.dx[a] * st.wy[b];
-                    let gy = st.wx[a] * st.dy[b];
-                    l[(0, 0)] += n.v.x * gx;
-                    l[(0, 1)] += n.v.x * gy;
-                    l[(1, 0)] += n.v.y * gx;
-                    l[(1, 1)] += n.v.y * gy;
-                }
-            }
-        }
-        p.v = (p.v + dv) * self.flip + vg * (1.0 - self.flip);
-        p.dx = vg * self.dt;
-        if want_grad {
-            p.grad_v = l;
-        }
-    }
-
-    /// MUSL: velocity gradient from the re-mapped nodal velocities.
-    #[inline(always)]
-    fn gradient(&self, p: &mut Point, nodes: &[Node]) {
-        let st = Stencil::at(p.x.x, p.x.y, p.base, self.ox, self.oy, self.h, self.lp);
-        let mut l = Mat2::zeros();
-        for a in 0..3 {
-            let base = (st.i0 + a) * self.ny + st.j0;
-            for (b, n) in nodes[base..base + 3].iter().enumerate() {
-                let gx = st.dx[a] * st.wy[b];
-                let gy = st.wx[a] * st.dy[b];
-                l[(0, 0)] += n.v.x * gx;
-                l[(0, 1)] += n.v.x * gy;
-                l[(1, 0)] += n.v.y * gx;
-                l[(1, 1)] += n.v.y * gy;
-            }
-        }
-        p.grad_v = l;
-    }
-
     /// Kinematics (J, volume) and the constitutive update of a chunk of points; the model
     /// is matched once per chunk.
     ///
