@@ -38,7 +38,7 @@
 
 use super::boundary::{self, WallWork};
 use super::error::MpmError;
-use super::grid::Grid;
+use super::grid::{Grid, Node};
 use super::material::{self, Elastic, McSurface};
 use super::params::{Model, MpmParams, Scheme, StepRule, Wall};
 use super::particles::Point;
@@ -46,6 +46,7 @@ use super::shape::first_node;
 use super::transfer::{Geom, simd_available};
 use crate::math::{Mat2, Real, Vec2};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 /// Node columns per band of the parallel scatter.
@@ -143,6 +144,9 @@ pub struct Solver {
     key: Vec<u32>,
     cursor: Vec<u32>,
     col_work: Vec<(WallWork, Real)>,
+    /// P2G: first band of every thread's range, and arrival counts at the range boundaries.
+    cuts: Vec<usize>,
+    arrivals: Arrivals,
     sorted_len: usize,
     /// Whether the transfers use AVX2 (`transfer::simd_available`; same results).
     simd: bool,
@@ -176,6 +180,8 @@ impl Solver {
             key: Vec::new(),
             cursor: Vec::with_capacity(nb),
             col_work: vec![(WallWork::default(), 0.0); nx],
+            cuts: Vec::with_capacity(nb + 1),
+            arrivals: Arrivals((0..=nb).map(|_| AtomicU32::new(0)).collect()),
             sorted_len: usize::MAX,
             simd: simd_available(),
             grid_clean: false,
@@ -283,6 +289,16 @@ impl Solver {
 
     /// Scatter onto the grid in the deterministic band order. `full`: mass, momentum and
     /// forces (`FULL`); otherwise momentum only (MUSL re-map, mass already there).
+    ///
+    /// One parallel region: the bands that hold points are cut into one contiguous range per
+    /// thread, balanced by point count, every range but the first starting at an odd band.
+    /// A range scatters its last (even) band first, then its other even bands, then its odd
+    /// bands; its first (odd) band `s` is deferred and scattered by whichever of the two
+    /// neighbouring ranges arrives second at boundary `s` — the left one after its band
+    /// s − 1, the right one after all its other bands (an atomic arrival count; nobody waits).
+    /// So every node still receives its even band's points before its odd band's, each band
+    /// in index order: the same sums, in the same order, as scattering all even bands and
+    /// then all odd bands, whatever the number of threads.
     fn p2g<const FULL: bool>(&mut self, points: &[Point]) {
         let ny = self.grid.ny;
         let geo = self.geom();
@@ -290,32 +306,70 @@ impl Solver {
         let order = &self.order;
         let start = &self.band_start;
         let nb = start.len() - 1;
-        // Only the bands that hold points are handed to rayon: the grid leaves room for the
-        // run-out, and with empty bands in the range the work splits unevenly between threads.
         let Some(b_lo) = (0..nb).find(|&b| start[b + 1] > start[b]) else {
             return;
         };
         let b_hi = (0..nb).rev().find(|&b| start[b + 1] > start[b]).unwrap_or(b_lo);
-        for phase in 0..2usize {
-            // Chunk k of this phase is band 2k + phase; chunks k_lo..k_hi cover b_lo..=b_hi.
-            let k_lo = if b_lo > phase { (b_lo - phase).div_ceil(2) } else { 0 };
-            if b_hi < phase || b_hi < 2 * k_lo + phase {
-                continue;
+        // Range boundaries: cuts[0] = b_lo < cuts[1] < … (odd, ≥ 2 apart) < cuts[R] = b_hi + 1.
+        let cuts = &mut self.cuts;
+        cuts.clear();
+        cuts.push(b_lo);
+        let ranges = rayon::current_num_threads().max(1);
+        let (p0, p1) = (start[b_lo] as usize, start[b_hi + 1] as usize);
+        for r in 1..ranges {
+            let target = p0 + (p1 - p0) * r / ranges;
+            let prev = *cuts.last().unwrap_or(&b_lo);
+            // the odd band nearest the target point, after the previous cut (odd cuts ≥ 2 apart)
+            let min = if r == 1 { (prev + 1) | 1 } else { prev + 2 };
+            let c = start.partition_point(|&s| (s as usize) <= target).saturating_sub(1) | 1;
+            let dist = |m: usize| (start[m.min(nb)] as usize).abs_diff(target);
+            let m = if c >= min + 2 && dist(c - 2) < dist(c) { c - 2 } else { c.max(min) };
+            if m > b_hi {
+                break;
             }
-            let k_hi = (b_hi - phase) / 2 + 1;
-            let len = self.grid.nodes.len();
-            let first = ((phase + 2 * k_lo) * BAND * ny).min(len);
-            let last = ((phase + 2 * k_hi) * BAND * ny).min(len);
-            let nodes = &mut self.grid.nodes[first..last];
-            nodes.par_chunks_mut(2 * BAND * ny).enumerate().for_each(|(k, chunk)| {
-                let b = 2 * (k_lo + k) + phase;
-                if b >= nb {
-                    return;
-                }
-                let idx = &order[start[b] as usize..start[b + 1] as usize];
-                geo.scatter::<FULL>(chunk, b * BAND, points, idx, g);
-            });
+            cuts.push(m);
         }
+        cuts.push(b_hi + 1);
+        let cuts = &self.cuts;
+        let arrivals = &self.arrivals.0;
+        for a in arrivals.iter().take(cuts.len()) {
+            a.store(0, Ordering::Relaxed);
+        }
+        let len = self.grid.nodes.len();
+        let nodes = NodesPtr(self.grid.nodes.as_mut_ptr());
+        let band = |b: usize| {
+            let first = (b * BAND * ny).min(len);
+            let last = ((b + 2) * BAND * ny).min(len);
+            // SAFETY: band b writes node columns [b·BAND, (b + 2)·BAND) only. Two bands run at
+            // the same time only if they are ≥ 2 apart (disjoint columns): inside a range the
+            // bands run one after another, and a boundary band s runs only after both of its
+            // neighbours s − 1 and s + 1 are done (arrival count, Acquire/Release) while the
+            // range that runs it goes on with bands ≤ s − 2 or ≥ s + 2.
+            let chunk = unsafe { std::slice::from_raw_parts_mut(nodes.get().add(first), last - first) };
+            let idx = &order[start[b] as usize..start[b + 1] as usize];
+            geo.scatter::<FULL>(chunk, b * BAND, points, idx, g);
+        };
+        let arrive = |s: usize| arrivals[s].fetch_add(1, Ordering::AcqRel) == 1;
+        let nr = cuts.len() - 1;
+        (0..nr).into_par_iter().with_min_len(1).for_each(|r| {
+            let (lo, hi) = (cuts[r], cuts[r + 1]);
+            let (left, right) = (r > 0, r + 1 < nr);
+            if right {
+                band(hi - 1);
+                if arrive(r + 1) {
+                    band(hi);
+                }
+            }
+            for b in (lo..hi).filter(|b| b % 2 == 0 && !(right && *b == hi - 1)) {
+                band(b);
+            }
+            for b in (lo..hi).filter(|b| b % 2 == 1 && !(left && *b == lo)) {
+                band(b);
+            }
+            if left && arrive(r) {
+                band(lo);
+            }
+        });
     }
 
     fn geom(&self) -> Geom {
@@ -546,6 +600,29 @@ impl Solver {
             i = e;
         }
         self.sorted_len = n;
+    }
+}
+
+/// P2G arrival counts (scratch; a clone starts from zero).
+#[derive(Debug)]
+struct Arrivals(Vec<AtomicU32>);
+impl Clone for Arrivals {
+    fn clone(&self) -> Self {
+        Self(self.0.iter().map(|_| AtomicU32::new(0)).collect())
+    }
+}
+
+/// The grid's nodes, shared by the P2G ranges (see `Solver::p2g` for why their writes
+/// never overlap in time).
+#[derive(Clone, Copy)]
+struct NodesPtr(*mut Node);
+// SAFETY: only dereferenced in `Solver::p2g`, where concurrent writes go to disjoint columns.
+unsafe impl Send for NodesPtr {}
+unsafe impl Sync for NodesPtr {}
+impl NodesPtr {
+    #[inline(always)]
+    fn get(self) -> *mut Node {
+        self.0
     }
 }
 
