@@ -32,7 +32,7 @@
 //! Determinism. The grid is cut into bands of 2 node columns; a point belongs to the band of
 //! its first stencil column, so it writes only to that band and the next. Even bands are
 //! scattered in parallel (they own disjoint 4-column slices), then odd bands. Inside a band the
-//! points are visited in index order (stable counting sort). Every nodal sum is therefore
+//! points are visited in index order (stable counting sort of the runs of equal band key). Every nodal sum is therefore
 //! accumulated in the same order whatever the number of threads: results are bit-identical
 //! for 1, 2, … threads, with no atomics and no per-thread grids.
 
@@ -139,10 +139,16 @@ pub struct Solver {
     surface: McSurface,
     lp: Real,
     // Scratch (allocated once).
-    order: Vec<u32>,
     band_start: Vec<u32>,
     key: Vec<u32>,
     cursor: Vec<u32>,
+    /// Runs of equal band key: chunk c (points c·CHUNK…) has its runs at
+    /// runs[c·CHUNK..c·CHUNK + run_count[c]]; `run_order` holds them sorted by band (stable),
+    /// band b's at run_order[run_start[b]..run_start[b + 1]].
+    runs: Vec<Run>,
+    run_count: Vec<u32>,
+    run_order: Vec<Run>,
+    run_start: Vec<u32>,
     col_work: Vec<(WallWork, Real)>,
     /// P2G: first band of every thread's range, and arrival counts at the range boundaries.
     cuts: Vec<usize>,
@@ -175,10 +181,13 @@ impl Solver {
             elastic: Elastic::new(m.young_pa, m.poisson),
             surface: material::surface_of(m),
             lp: params.shape_half_width(),
-            order: Vec::new(),
             band_start: vec![0; nb + 1],
             key: Vec::new(),
             cursor: Vec::with_capacity(nb),
+            runs: Vec::new(),
+            run_count: Vec::new(),
+            run_order: Vec::new(),
+            run_start: vec![0; nb + 1],
             col_work: vec![(WallWork::default(), 0.0); nx],
             cuts: Vec::with_capacity(nb + 1),
             arrivals: Arrivals((0..=nb).map(|_| AtomicU32::new(0)).collect()),
@@ -303,7 +312,7 @@ impl Solver {
         let ny = self.grid.ny;
         let geo = self.geom();
         let g = self.params.gravity;
-        let order = &self.order;
+        let (runs, run_start) = (&self.run_order, &self.run_start);
         let start = &self.band_start;
         let nb = start.len() - 1;
         let Some(b_lo) = (0..nb).find(|&b| start[b + 1] > start[b]) else {
@@ -346,7 +355,8 @@ impl Solver {
             // neighbours s − 1 and s + 1 are done (arrival count, Acquire/Release) while the
             // range that runs it goes on with bands ≤ s − 2 or ≥ s + 2.
             let chunk = unsafe { std::slice::from_raw_parts_mut(nodes.get().add(first), last - first) };
-            let idx = &order[start[b] as usize..start[b + 1] as usize];
+            let band_runs = &runs[run_start[b] as usize..run_start[b + 1] as usize];
+            let idx = band_runs.iter().flat_map(|r| r.start as usize..(r.start + r.len) as usize);
             geo.scatter::<FULL>(chunk, b * BAND, points, idx, g);
         };
         let arrive = |s: usize| arrivals[s].fetch_add(1, Ordering::AcqRel) == 1;
@@ -498,13 +508,19 @@ impl Solver {
         let k = self.kernel(dt);
         let grid = &self.grid;
         let nodes = &grid.nodes;
-        self.key.resize(state.points.len(), 0);
+        let n = state.points.len();
+        self.key.resize(n, 0);
+        self.runs.resize(n, Run::default());
+        self.run_count.resize(n.div_ceil(CHUNK), 0);
         let clock = Instant::now();
         let (cpu, bad) = state
             .points
             .par_chunks_mut(CHUNK)
             .zip(self.key.par_chunks_mut(CHUNK))
-            .map(|(pc, kc)| {
+            .zip(self.runs.par_chunks_mut(CHUNK))
+            .zip(self.run_count.par_iter_mut())
+            .enumerate()
+            .map(|(c, (((pc, kc), rc), count))| {
                 let t0 = Instant::now();
                 match gather {
                     Gather::Full => k.geo.gather::<true, true>(pc, nodes, k.flip, k.dt),
@@ -514,6 +530,7 @@ impl Solver {
                 k.update_stress(pc);
                 let t2 = Instant::now();
                 let bad = k.relocate(pc, kc, grid);
+                *count = key_runs(kc, c * CHUNK, rc);
                 let t3 = Instant::now();
                 ([t1 - t0, t2 - t1, t3 - t2], bad)
             })
@@ -533,7 +550,7 @@ impl Solver {
         if bad {
             super::watchdog::check_points(&state.points, &self.grid, self.lp, state.step, state.t)?;
         }
-        self.counting_sort(state.points.len());
+        self.sort_runs();
         self.times.relocate += share(cpu[2]) + t.elapsed();
         Ok(())
     }
@@ -543,63 +560,56 @@ impl Solver {
         super::watchdog::check_points(points, &self.grid, self.lp, step, t)?;
         let (ox, oy, h, lp) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.lp);
         let nb = self.band_start.len() - 1;
-        self.key.resize(points.len(), 0);
-        self.key.par_chunks_mut(4096).zip(points.par_chunks_mut(4096)).for_each(|(k, p)| {
-            for (k, p) in k.iter_mut().zip(p) {
-                *k = set_base(p, ox, oy, h, lp, nb);
-            }
-        });
-        self.counting_sort(points.len());
+        let n = points.len();
+        self.key.resize(n, 0);
+        self.runs.resize(n, Run::default());
+        self.run_count.resize(n.div_ceil(CHUNK), 0);
+        self.key
+            .par_chunks_mut(CHUNK)
+            .zip(points.par_chunks_mut(CHUNK))
+            .zip(self.runs.par_chunks_mut(CHUNK))
+            .zip(self.run_count.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, (((kc, pc), rc), count))| {
+                for (k, p) in kc.iter_mut().zip(pc) {
+                    *k = set_base(p, ox, oy, h, lp, nb);
+                }
+                *count = key_runs(kc, c * CHUNK, rc);
+            });
+        self.sort_runs();
         Ok(())
     }
 
-    /// Stable counting sort of the point indices by band key.
-    fn counting_sort(&mut self, n: usize) {
+    /// Stable counting sort of the runs of equal band key (a few per chunk of points: the
+    /// points are stored roughly band by band) into `run_order`; points per band into
+    /// `band_start`. Band b's points in index order are then its runs' points, run by run.
+    fn sort_runs(&mut self) {
         let nb = self.band_start.len() - 1;
-        self.order.resize(n, 0);
-        let start = &mut self.band_start;
+        let (start, rstart) = (&mut self.band_start, &mut self.run_start);
         start.fill(0);
-        // Keys come in long runs (points are stored roughly band by band): count runs in a
-        // register instead of a load-add-store chain through memory per point.
-        let mut run_key = u32::MAX;
-        let mut run_len = 0u32;
-        for &k in &self.key {
-            if k != run_key {
-                if run_len > 0 {
-                    start[run_key as usize + 1] += run_len;
-                }
-                run_key = k;
-                run_len = 0;
+        rstart.fill(0);
+        let chunk_runs = |c: usize, count: u32| &self.runs[c * CHUNK..c * CHUNK + count as usize];
+        for (c, &count) in self.run_count.iter().enumerate() {
+            for r in chunk_runs(c, count) {
+                start[r.key as usize + 1] += r.len;
+                rstart[r.key as usize + 1] += 1;
             }
-            run_len += 1;
-        }
-        if run_len > 0 {
-            start[run_key as usize + 1] += run_len;
         }
         for b in 0..nb {
             start[b + 1] += start[b];
+            rstart[b + 1] += rstart[b];
         }
         let fill = &mut self.cursor;
         fill.clear();
-        fill.extend_from_slice(&start[..nb]);
-        // Same run trick for the placement: within a run the slots are consecutive.
-        let order = &mut self.order;
-        let mut i = 0usize;
-        let key = &self.key;
-        while i < n {
-            let k = key[i];
-            let mut e = i + 1;
-            while e < n && key[e] == k {
-                e += 1;
+        fill.extend_from_slice(&rstart[..nb]);
+        self.run_order.resize(rstart[nb] as usize, Run::default());
+        for (c, &count) in self.run_count.iter().enumerate() {
+            for r in chunk_runs(c, count) {
+                self.run_order[fill[r.key as usize] as usize] = *r;
+                fill[r.key as usize] += 1;
             }
-            let c = fill[k as usize] as usize;
-            for (slot, idx) in order[c..c + (e - i)].iter_mut().zip(i as u32..e as u32) {
-                *slot = idx;
-            }
-            fill[k as usize] += (e - i) as u32;
-            i = e;
         }
-        self.sorted_len = n;
+        self.sorted_len = self.key.len();
     }
 }
 
@@ -610,6 +620,32 @@ impl Clone for Arrivals {
     fn clone(&self) -> Self {
         Self(self.0.iter().map(|_| AtomicU32::new(0)).collect())
     }
+}
+
+/// A run of consecutive points with the same band key.
+#[derive(Debug, Clone, Copy, Default)]
+struct Run {
+    start: u32,
+    len: u32,
+    key: u32,
+}
+
+/// Write the runs of equal key of `keys` (points `first`, `first` + 1, …) to `out`; returns
+/// their number.
+fn key_runs(keys: &[u32], first: usize, out: &mut [Run]) -> u32 {
+    let mut n = 0usize;
+    let mut i = 0usize;
+    while i < keys.len() {
+        let k = keys[i];
+        let mut e = i + 1;
+        while e < keys.len() && keys[e] == k {
+            e += 1;
+        }
+        out[n] = Run { start: (first + i) as u32, len: (e - i) as u32, key: k };
+        n += 1;
+        i = e;
+    }
+    n as u32
 }
 
 /// The grid's nodes, shared by the P2G ranges (see `Solver::p2g` for why their writes

@@ -45,7 +45,7 @@ impl Geom {
 
     /// Scatter the points `idx` (in that order) onto `chunk`, the node columns from `col0` on.
     /// `FULL`: mass, momentum, internal force −V σ ∇φ and gravity `g`; otherwise momentum only.
-    pub fn scatter<const FULL: bool>(&self, chunk: &mut [Node], col0: usize, points: &[Point], idx: &[u32], g: Real) {
+    pub fn scatter<const FULL: bool>(&self, chunk: &mut [Node], col0: usize, points: &[Point], idx: impl Iterator<Item = usize>, g: Real) {
         #[cfg(target_arch = "x86_64")]
         if self.simd {
             // SAFETY: `simd` is only set when the CPU has AVX2 (`simd_available`).
@@ -53,8 +53,8 @@ impl Geom {
             return;
         }
         let ny = self.ny;
-        for &pi in idx {
-            let p = &points[pi as usize];
+        for pi in idx {
+            let p = &points[pi];
             let st = self.stencil(p);
             let m = p.mass;
             let mv = p.v * m;
@@ -146,10 +146,10 @@ mod avx2 {
     /// Lanes: [p.x, p.y, f.x, f.y] += [mv.x w, mv.y w, vxx gx + vxy gy, (vxy gx + vyy gy) + w mg],
     /// m += w m; the products and sums of the scalar code, each in its order.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn scatter<const FULL: bool>(geo: &Geom, chunk: &mut [Node], col0: usize, points: &[Point], idx: &[u32], g: Real) {
+    pub(super) unsafe fn scatter<const FULL: bool>(geo: &Geom, chunk: &mut [Node], col0: usize, points: &[Point], idx: impl Iterator<Item = usize>, g: Real) {
         let ny = geo.ny;
-        for &pi in idx {
-            let p = &points[pi as usize];
+        for pi in idx {
+            let p = &points[pi];
             let st = geo.stencil(p);
             let m = p.mass;
             let mv = p.v * m;
@@ -284,14 +284,14 @@ mod tests {
                     p
                 })
                 .collect();
-            let idx: Vec<u32> = (0..pts.len() as u32).rev().collect();
+            let idx: Vec<usize> = (0..pts.len()).rev().collect();
             for full in [true, false] {
                 let mut grids = [vec![Node::default(); nx * ny], vec![Node::default(); nx * ny]];
                 for (grid, geo) in grids.iter_mut().zip([scalar, simd]) {
                     if full {
-                        geo.scatter::<true>(grid, 0, &pts, &idx, 9.81);
+                        geo.scatter::<true>(grid, 0, &pts, idx.iter().copied(), 9.81);
                     } else {
-                        geo.scatter::<false>(grid, 0, &pts, &idx, 9.81);
+                        geo.scatter::<false>(grid, 0, &pts, idx.iter().copied(), 9.81);
                     }
                 }
                 let flat = |g: &[Node]| g.iter().flat_map(|n| [n.m, n.p.x, n.p.y, n.f.x, n.f.y]).collect::<Vec<_>>();
