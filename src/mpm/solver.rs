@@ -13,7 +13,8 @@
 //!   L taken from those velocities.
 //! - `update_stress`: J ← J det(I + ΔtL), V = V_0 J, Jaumann elastic trial, return mapping.
 //! - `relocate`: x ← x + Δx, watchdog checks (finite, J > 0, inside the grid), stencil base
-//!   of every point, bucket sort of the points by stencil band for the next p2g.
+//!   of every point, runs of equal stencil band (per chunk of points) sorted by band for the
+//!   next p2g.
 //!
 //! All shape functions within a step are evaluated at the positions of the start of the step.
 //! g2p, update_stress and the move of relocate are per-point and run fused chunk by chunk in
@@ -30,11 +31,16 @@
 //! buffer are allocated once (`Solver::new`) or grow once to the number of points.
 //!
 //! Determinism. The grid is cut into bands of 2 node columns; a point belongs to the band of
-//! its first stencil column, so it writes only to that band and the next. Even bands are
-//! scattered in parallel (they own disjoint 4-column slices), then odd bands. Inside a band the
-//! points are visited in index order (stable counting sort of the runs of equal band key). Every nodal sum is therefore
-//! accumulated in the same order whatever the number of threads: results are bit-identical
-//! for 1, 2, … threads, with no atomics and no per-thread grids.
+//! its first stencil column, so it writes only to that band and the next. Every node receives
+//! its even band's points before its odd band's; inside a band the points are visited in
+//! index order (stable counting sort of the runs of equal band key). The threads share the
+//! bands as contiguous ranges in one parallel region (`Solver::p2g`: boundary bands deferred
+//! to whichever neighbour finishes second), which keeps exactly that order. Every nodal sum
+//! is therefore accumulated in the same order whatever the number of threads: results are
+//! bit-identical for 1, 2, … threads, with no floating-point atomics and no per-thread grids.
+//!
+//! The transfers themselves (scatter, gather) are in `transfer.rs`: scalar, and AVX2 within a
+//! point with the same arithmetic (runtime detection).
 
 use super::boundary::{self, WallWork};
 use super::error::MpmError;

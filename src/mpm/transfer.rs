@@ -160,16 +160,19 @@ mod avx2 {
             let mgv = _mm256_setr_pd(0.0, 0.0, 0.0, mg);
             let wy = [_mm256_set1_pd(st.wy[0]), _mm256_set1_pd(st.wy[1]), _mm256_set1_pd(st.wy[2])];
             let dy = [_mm256_set1_pd(st.dy[0]), _mm256_set1_pd(st.dy[1]), _mm256_set1_pd(st.dy[2])];
+            // One bounds check for the whole 3 × 3 stencil (columns ny nodes apart).
+            let base = (st.i0 - col0) * ny + st.j0;
+            assert!(base + 2 * ny + 3 <= chunk.len(), "stencil outside the band's nodes");
+            let n0 = chunk.as_mut_ptr() as *mut Real;
             for a in 0..3 {
-                let base = (st.i0 + a - col0) * ny + st.j0;
-                let column = &mut chunk[base..base + 3];
-                let np = column.as_mut_ptr() as *mut Real;
+                // SAFETY: column a's 3 nodes lie inside `chunk` (checked above).
+                let np = unsafe { n0.add(9 * (base + a * ny)) };
                 let wxa = _mm256_set1_pd(st.wx[a]);
                 // [w, w, gx, gx] = [wx_a, wx_a, dx_a, dx_a] · wy_b
                 let aw = _mm256_setr_pd(st.wx[a], st.wx[a], st.dx[a], st.dx[a]);
                 for b in 0..3 {
-                    // SAFETY: node b of `column` (3 nodes, bounds checked above); P..P+4 and
-                    // 0 lie inside the node (offsets asserted above).
+                    // SAFETY: node b of column a (bounds checked above); P..P+4 and 0 lie
+                    // inside the node (offsets asserted above).
                     unsafe {
                         let n = np.add(9 * b);
                         let w4 = _mm256_mul_pd(aw, wy[b]);
@@ -207,14 +210,16 @@ mod avx2 {
             ];
             let mut acc = _mm256_setzero_pd();
             let mut lacc = _mm256_setzero_pd();
+            let base = st.i0 * ny + st.j0;
+            assert!(base + 2 * ny + 3 <= nodes.len(), "stencil outside the grid");
+            let n0 = nodes.as_ptr() as *const Real;
             for a in 0..3 {
-                let base = (st.i0 + a) * ny + st.j0;
-                let column = &nodes[base..base + 3];
-                let np = column.as_ptr() as *const Real;
+                // SAFETY: column a's 3 nodes lie inside `nodes` (checked above).
+                let np = unsafe { n0.add(9 * (base + a * ny)) };
                 let wxa = _mm256_set1_pd(st.wx[a]);
                 let da = _mm256_setr_pd(st.dx[a], st.wx[a], st.dx[a], st.wx[a]);
                 for b in 0..3 {
-                    // SAFETY: node b of `column`; V..V+4 lies inside the node.
+                    // SAFETY: node b of column a (checked above); V..V+4 lies inside the node.
                     let nv = unsafe { _mm256_loadu_pd(np.add(9 * b + V)) };
                     if VEL {
                         let w = _mm256_mul_pd(wxa, wy[b]);
