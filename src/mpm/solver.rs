@@ -305,7 +305,7 @@ impl Solver {
     /// Scatter onto the grid in the deterministic band order. `full`: mass, momentum and
     /// forces (`FULL`); otherwise momentum only (MUSL re-map, mass already there).
     ///
-    /// One parallel region: the bands that hold points are cut into one contiguous range per
+    /// One parallel region: the bands that hold points are cut into two contiguous ranges per
     /// thread, balanced by point count, every range but the first starting at an odd band.
     /// A range scatters its last (even) band first, then its other even bands, then its odd
     /// bands; its first (odd) band `s` is deferred and scattered by whichever of the two
@@ -329,7 +329,9 @@ impl Solver {
         let cuts = &mut self.cuts;
         cuts.clear();
         cuts.push(b_lo);
-        let ranges = rayon::current_num_threads().max(1);
+        // Two ranges per thread: a thread that starts late (shared cores) leaves whole ranges
+        // to the others instead of holding up the region.
+        let ranges = 2 * rayon::current_num_threads().max(1);
         let (p0, p1) = (start[b_lo] as usize, start[b_hi + 1] as usize);
         for r in 1..ranges {
             let target = p0 + (p1 - p0) * r / ranges;
