@@ -1,5 +1,7 @@
-//! Bit-identical results at 1 and 2 threads (deterministic band-coloured P2G, fixed-order
-//! reductions), for USL and MUSL, Mohr–Coulomb and μ(I).
+//! Bit-identical results at 1, 2, 3 and 5 threads (deterministic band-ordered P2G, one range
+//! of bands per thread with deferred boundary bands; fixed-order reductions), for USL and
+//! MUSL, Mohr–Coulomb and μ(I). 3 and 5 threads exercise several range boundaries and the
+//! cut-off when there are fewer bands than ranges need.
 
 use granrepro::mpm::{Model, MpmParams, Scheme, column};
 
@@ -31,9 +33,11 @@ fn fingerprint(scheme: Scheme, model: Model, threads: usize) -> Vec<u64> {
 fn one_and_two_threads_are_bit_identical() {
     for (scheme, model) in [(Scheme::Usl, Model::MohrCoulomb), (Scheme::Musl, Model::mu_i_default())] {
         let a = fingerprint(scheme, model, 1);
-        let b = fingerprint(scheme, model, 2);
-        assert_eq!(a.len(), b.len());
-        let first_diff = a.iter().zip(&b).position(|(x, y)| x != y);
-        assert!(first_diff.is_none(), "{scheme:?}: first difference at word {first_diff:?}");
+        for threads in [2, 3, 5] {
+            let b = fingerprint(scheme, model, threads);
+            assert_eq!(a.len(), b.len());
+            let first_diff = a.iter().zip(&b).position(|(x, y)| x != y);
+            assert!(first_diff.is_none(), "{scheme:?}, {threads} threads: first difference at word {first_diff:?}");
+        }
     }
 }

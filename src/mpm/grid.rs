@@ -4,8 +4,10 @@
 
 use crate::math::{Real, Vec2};
 
-/// Nodal quantities of one step.
+/// Nodal quantities of one step. `repr(C)`: the vectorised transfers (transfer.rs) read
+/// p, f and v, Δv as runs of four f64.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C)]
 pub struct Node {
     /// Mass [kg/m].
     pub m: Real,

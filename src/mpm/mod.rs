@@ -35,6 +35,7 @@ pub mod preflight;
 pub mod shape;
 pub mod solver;
 mod stress_block;
+mod transfer;
 pub mod watchdog;
 
 pub use energy::{Energies, energies};

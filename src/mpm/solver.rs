@@ -13,7 +13,8 @@
 //!   L taken from those velocities.
 //! - `update_stress`: J ← J det(I + ΔtL), V = V_0 J, Jaumann elastic trial, return mapping.
 //! - `relocate`: x ← x + Δx, watchdog checks (finite, J > 0, inside the grid), stencil base
-//!   of every point, bucket sort of the points by stencil band for the next p2g.
+//!   of every point, runs of equal stencil band (per chunk of points) sorted by band for the
+//!   next p2g.
 //!
 //! All shape functions within a step are evaluated at the positions of the start of the step.
 //! g2p, update_stress and the move of relocate are per-point and run fused chunk by chunk in
@@ -30,11 +31,16 @@
 //! buffer are allocated once (`Solver::new`) or grow once to the number of points.
 //!
 //! Determinism. The grid is cut into bands of 2 node columns; a point belongs to the band of
-//! its first stencil column, so it writes only to that band and the next. Even bands are
-//! scattered in parallel (they own disjoint 4-column slices), then odd bands. Inside a band the
-//! points are visited in index order (stable counting sort). Every nodal sum is therefore
-//! accumulated in the same order whatever the number of threads: results are bit-identical
-//! for 1, 2, … threads, with no atomics and no per-thread grids.
+//! its first stencil column, so it writes only to that band and the next. Every node receives
+//! its even band's points before its odd band's; inside a band the points are visited in
+//! index order (stable counting sort of the runs of equal band key). The threads share the
+//! bands as contiguous ranges in one parallel region (`Solver::p2g`: boundary bands deferred
+//! to whichever neighbour finishes second), which keeps exactly that order. Every nodal sum
+//! is therefore accumulated in the same order whatever the number of threads: results are
+//! bit-identical for 1, 2, … threads, with no floating-point atomics and no per-thread grids.
+//!
+//! The transfers themselves (scatter, gather) are in `transfer.rs`: scalar, and AVX2 within a
+//! point with the same arithmetic (runtime detection).
 
 use super::boundary::{self, WallWork};
 use super::error::MpmError;
@@ -42,10 +48,12 @@ use super::grid::{Grid, Node};
 use super::material::{self, Elastic, McSurface};
 use super::params::{MpmParams, Scheme, StepRule, Wall};
 use super::particles::Point;
+use super::shape::first_node;
 use super::stress_block;
-use super::shape::{Stencil, first_node};
+use super::transfer::{Geom, simd_available};
 use crate::math::{Mat2, Real, Vec2};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 /// Node columns per band of the parallel scatter.
@@ -138,12 +146,23 @@ pub struct Solver {
     surface: McSurface,
     lp: Real,
     // Scratch (allocated once).
-    order: Vec<u32>,
     band_start: Vec<u32>,
     key: Vec<u32>,
     cursor: Vec<u32>,
+    /// Runs of equal band key: chunk c (points c·CHUNK…) has its runs at
+    /// runs[c·CHUNK..c·CHUNK + run_count[c]]; `run_order` holds them sorted by band (stable),
+    /// band b's at run_order[run_start[b]..run_start[b + 1]].
+    runs: Vec<Run>,
+    run_count: Vec<u32>,
+    run_order: Vec<Run>,
+    run_start: Vec<u32>,
     col_work: Vec<(WallWork, Real)>,
+    /// P2G: first band of every thread's range, and arrival counts at the range boundaries.
+    cuts: Vec<usize>,
+    arrivals: Arrivals,
     sorted_len: usize,
+    /// Whether the transfers use AVX2 (`transfer::simd_available`; same results).
+    simd: bool,
     /// Whether m, p, f of every node are zero (the previous step cleared them on its last
     /// pass over the grid, so `reset_grid` has nothing to do).
     grid_clean: bool,
@@ -169,12 +188,18 @@ impl Solver {
             elastic: Elastic::new(m.young_pa, m.poisson),
             surface: material::surface_of(m),
             lp: params.shape_half_width(),
-            order: Vec::new(),
             band_start: vec![0; nb + 1],
             key: Vec::new(),
             cursor: Vec::with_capacity(nb),
+            runs: Vec::new(),
+            run_count: Vec::new(),
+            run_order: Vec::new(),
+            run_start: vec![0; nb + 1],
             col_work: vec![(WallWork::default(), 0.0); nx],
+            cuts: Vec::with_capacity(nb + 1),
+            arrivals: Arrivals((0..=nb).map(|_| AtomicU32::new(0)).collect()),
             sorted_len: usize::MAX,
+            simd: simd_available(),
             grid_clean: false,
         })
     }
@@ -280,62 +305,95 @@ impl Solver {
 
     /// Scatter onto the grid in the deterministic band order. `full`: mass, momentum and
     /// forces (`FULL`); otherwise momentum only (MUSL re-map, mass already there).
+    ///
+    /// One parallel region: the bands that hold points are cut into two contiguous ranges per
+    /// thread, balanced by point count, every range but the first starting at an odd band.
+    /// A range scatters its last (even) band first, then its other even bands, then its odd
+    /// bands; its first (odd) band `s` is deferred and scattered by whichever of the two
+    /// neighbouring ranges arrives second at boundary `s` — the left one after its band
+    /// s − 1, the right one after all its other bands (an atomic arrival count; nobody waits).
+    /// So every node still receives its even band's points before its odd band's, each band
+    /// in index order: the same sums, in the same order, as scattering all even bands and
+    /// then all odd bands, whatever the number of threads.
     fn p2g<const FULL: bool>(&mut self, points: &[Point]) {
         let ny = self.grid.ny;
-        let (ox, oy, h, lp) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.lp);
+        let geo = self.geom();
         let g = self.params.gravity;
-        let order = &self.order;
+        let (runs, run_start) = (&self.run_order, &self.run_start);
         let start = &self.band_start;
         let nb = start.len() - 1;
-        // Only the bands that hold points are handed to rayon: the grid leaves room for the
-        // run-out, and with empty bands in the range the work splits unevenly between threads.
         let Some(b_lo) = (0..nb).find(|&b| start[b + 1] > start[b]) else {
             return;
         };
         let b_hi = (0..nb).rev().find(|&b| start[b + 1] > start[b]).unwrap_or(b_lo);
-        for phase in 0..2usize {
-            // Chunk k of this phase is band 2k + phase; chunks k_lo..k_hi cover b_lo..=b_hi.
-            let k_lo = if b_lo > phase { (b_lo - phase).div_ceil(2) } else { 0 };
-            if b_hi < phase || b_hi < 2 * k_lo + phase {
-                continue;
+        // Range boundaries: cuts[0] = b_lo < cuts[1] < … (odd, ≥ 2 apart) < cuts[R] = b_hi + 1.
+        let cuts = &mut self.cuts;
+        cuts.clear();
+        cuts.push(b_lo);
+        // Two ranges per thread: a thread that starts late (shared cores) leaves whole ranges
+        // to the others instead of holding up the region.
+        let ranges = 2 * rayon::current_num_threads().max(1);
+        let (p0, p1) = (start[b_lo] as usize, start[b_hi + 1] as usize);
+        for r in 1..ranges {
+            let target = p0 + (p1 - p0) * r / ranges;
+            let prev = *cuts.last().unwrap_or(&b_lo);
+            // the odd band nearest the target point, after the previous cut (odd cuts ≥ 2 apart)
+            let min = if r == 1 { (prev + 1) | 1 } else { prev + 2 };
+            let c = start.partition_point(|&s| (s as usize) <= target).saturating_sub(1) | 1;
+            let dist = |m: usize| (start[m.min(nb)] as usize).abs_diff(target);
+            let m = if c >= min + 2 && dist(c - 2) < dist(c) { c - 2 } else { c.max(min) };
+            if m > b_hi {
+                break;
             }
-            let k_hi = (b_hi - phase) / 2 + 1;
-            let len = self.grid.nodes.len();
-            let first = ((phase + 2 * k_lo) * BAND * ny).min(len);
-            let last = ((phase + 2 * k_hi) * BAND * ny).min(len);
-            let nodes = &mut self.grid.nodes[first..last];
-            nodes.par_chunks_mut(2 * BAND * ny).enumerate().for_each(|(k, chunk)| {
-                let b = 2 * (k_lo + k) + phase;
-                if b >= nb {
-                    return;
-                }
-                let col0 = b * BAND;
-                for &pi in &order[start[b] as usize..start[b + 1] as usize] {
-                    let p = &points[pi as usize];
-                    let st = Stencil::at(p.x.x, p.x.y, p.base, ox, oy, h, lp);
-                    let m = p.mass;
-                    let mv = p.v * m;
-                    let (vxx, vyy, vxy) = (-p.vol * p.stress.xx, -p.vol * p.stress.yy, -p.vol * p.stress.xy);
-                    let mg = -m * g;
-                    for a in 0..3 {
-                        let base = (st.i0 + a - col0) * ny + st.j0;
-                        let (wa, da) = (st.wx[a], st.dx[a]);
-                        let column = &mut chunk[base..base + 3];
-                        for (bb, n) in column.iter_mut().enumerate() {
-                            let w = wa * st.wy[bb];
-                            let gx = da * st.wy[bb];
-                            let gy = wa * st.dy[bb];
-                            n.p += mv * w;
-                            if FULL {
-                                n.m += w * m;
-                                n.f.x += vxx * gx + vxy * gy;
-                                n.f.y += vxy * gx + vyy * gy + w * mg;
-                            }
-                        }
-                    }
-                }
-            });
+            cuts.push(m);
         }
+        cuts.push(b_hi + 1);
+        let cuts = &self.cuts;
+        let arrivals = &self.arrivals.0;
+        for a in arrivals.iter().take(cuts.len()) {
+            a.store(0, Ordering::Relaxed);
+        }
+        let len = self.grid.nodes.len();
+        let nodes = NodesPtr(self.grid.nodes.as_mut_ptr());
+        let band = |b: usize| {
+            let first = (b * BAND * ny).min(len);
+            let last = ((b + 2) * BAND * ny).min(len);
+            // SAFETY: band b writes node columns [b·BAND, (b + 2)·BAND) only. Two bands run at
+            // the same time only if they are ≥ 2 apart (disjoint columns): inside a range the
+            // bands run one after another, and a boundary band s runs only after both of its
+            // neighbours s − 1 and s + 1 are done (arrival count, Acquire/Release) while the
+            // range that runs it goes on with bands ≤ s − 2 or ≥ s + 2.
+            let chunk = unsafe { std::slice::from_raw_parts_mut(nodes.get().add(first), last - first) };
+            let band_runs = &runs[run_start[b] as usize..run_start[b + 1] as usize];
+            let idx = band_runs.iter().flat_map(|r| r.start as usize..(r.start + r.len) as usize);
+            geo.scatter::<FULL>(chunk, b * BAND, points, idx, g);
+        };
+        let arrive = |s: usize| arrivals[s].fetch_add(1, Ordering::AcqRel) == 1;
+        let nr = cuts.len() - 1;
+        (0..nr).into_par_iter().with_min_len(1).for_each(|r| {
+            let (lo, hi) = (cuts[r], cuts[r + 1]);
+            let (left, right) = (r > 0, r + 1 < nr);
+            if right {
+                band(hi - 1);
+                if arrive(r + 1) {
+                    band(hi);
+                }
+            }
+            for b in (lo..hi).filter(|b| b % 2 == 0 && !(right && *b == hi - 1)) {
+                band(b);
+            }
+            for b in (lo..hi).filter(|b| b % 2 == 1 && !(left && *b == lo)) {
+                band(b);
+            }
+            if left && arrive(r) {
+                band(lo);
+            }
+        });
+    }
+
+    fn geom(&self) -> Geom {
+        let (ox, oy, h, ny) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.grid.ny);
+        Geom { ox, oy, h, lp: self.lp, ny, simd: self.simd }
     }
 
     /// Nodal velocity update with damping and wall constraints; books wall work. Clears p and
@@ -401,13 +459,9 @@ impl Solver {
 
     /// MUSL phase g2p on its own: velocity update and step displacement.
     fn g2p(&mut self, points: &mut [Point], dt: Real) {
-        let k = self.kernel(dt);
+        let (geo, flip) = (self.geom(), self.flip);
         let nodes = &self.grid.nodes;
-        points.par_chunks_mut(1024).for_each(|chunk| {
-            for p in chunk {
-                k.g2p(p, nodes, false);
-            }
-        });
+        points.par_chunks_mut(1024).for_each(|chunk| geo.gather::<true, false>(chunk, nodes, flip, dt));
     }
 
     /// MUSL: map the updated point momenta back to the grid and constrain them.
@@ -444,7 +498,7 @@ impl Solver {
             oy: self.grid.origin.y,
             h: self.grid.h,
             lp: self.lp,
-            ny: self.grid.ny,
+            geo: self.geom(),
             nb: self.band_start.len() - 1,
             flip: self.flip,
             dt,
@@ -459,22 +513,29 @@ impl Solver {
         let k = self.kernel(dt);
         let grid = &self.grid;
         let nodes = &grid.nodes;
-        self.key.resize(state.points.len(), 0);
+        let n = state.points.len();
+        self.key.resize(n, 0);
+        self.runs.resize(n, Run::default());
+        self.run_count.resize(n.div_ceil(CHUNK), 0);
         let clock = Instant::now();
         let (cpu, bad) = state
             .points
             .par_chunks_mut(CHUNK)
             .zip(self.key.par_chunks_mut(CHUNK))
-            .map(|(pc, kc)| {
+            .zip(self.runs.par_chunks_mut(CHUNK))
+            .zip(self.run_count.par_iter_mut())
+            .enumerate()
+            .map(|(c, (((pc, kc), rc), count))| {
                 let t0 = Instant::now();
                 match gather {
-                    Gather::Full => pc.iter_mut().for_each(|p| k.g2p(p, nodes, true)),
-                    Gather::GradientOnly => pc.iter_mut().for_each(|p| k.gradient(p, nodes)),
+                    Gather::Full => k.geo.gather::<true, true>(pc, nodes, k.flip, k.dt),
+                    Gather::GradientOnly => k.geo.gather::<false, true>(pc, nodes, k.flip, k.dt),
                 }
                 let t1 = Instant::now();
                 k.update_stress(pc);
                 let t2 = Instant::now();
                 let bad = k.relocate(pc, kc, grid);
+                *count = key_runs(kc, c * CHUNK, rc);
                 let t3 = Instant::now();
                 ([t1 - t0, t2 - t1, t3 - t2], bad)
             })
@@ -494,7 +555,7 @@ impl Solver {
         if bad {
             super::watchdog::check_points(&state.points, &self.grid, self.lp, state.step, state.t)?;
         }
-        self.counting_sort(state.points.len());
+        self.sort_runs();
         self.times.relocate += share(cpu[2]) + t.elapsed();
         Ok(())
     }
@@ -504,63 +565,105 @@ impl Solver {
         super::watchdog::check_points(points, &self.grid, self.lp, step, t)?;
         let (ox, oy, h, lp) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.lp);
         let nb = self.band_start.len() - 1;
-        self.key.resize(points.len(), 0);
-        self.key.par_chunks_mut(4096).zip(points.par_chunks_mut(4096)).for_each(|(k, p)| {
-            for (k, p) in k.iter_mut().zip(p) {
-                *k = set_base(p, ox, oy, h, lp, nb);
-            }
-        });
-        self.counting_sort(points.len());
+        let n = points.len();
+        self.key.resize(n, 0);
+        self.runs.resize(n, Run::default());
+        self.run_count.resize(n.div_ceil(CHUNK), 0);
+        self.key
+            .par_chunks_mut(CHUNK)
+            .zip(points.par_chunks_mut(CHUNK))
+            .zip(self.runs.par_chunks_mut(CHUNK))
+            .zip(self.run_count.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, (((kc, pc), rc), count))| {
+                for (k, p) in kc.iter_mut().zip(pc) {
+                    *k = set_base(p, ox, oy, h, lp, nb);
+                }
+                *count = key_runs(kc, c * CHUNK, rc);
+            });
+        self.sort_runs();
         Ok(())
     }
 
-    /// Stable counting sort of the point indices by band key.
-    fn counting_sort(&mut self, n: usize) {
+    /// Stable counting sort of the runs of equal band key (a few per chunk of points: the
+    /// points are stored roughly band by band) into `run_order`; points per band into
+    /// `band_start`. Band b's points in index order are then its runs' points, run by run.
+    fn sort_runs(&mut self) {
         let nb = self.band_start.len() - 1;
-        self.order.resize(n, 0);
-        let start = &mut self.band_start;
+        let (start, rstart) = (&mut self.band_start, &mut self.run_start);
         start.fill(0);
-        // Keys come in long runs (points are stored roughly band by band): count runs in a
-        // register instead of a load-add-store chain through memory per point.
-        let mut run_key = u32::MAX;
-        let mut run_len = 0u32;
-        for &k in &self.key {
-            if k != run_key {
-                if run_len > 0 {
-                    start[run_key as usize + 1] += run_len;
-                }
-                run_key = k;
-                run_len = 0;
+        rstart.fill(0);
+        let chunk_runs = |c: usize, count: u32| &self.runs[c * CHUNK..c * CHUNK + count as usize];
+        for (c, &count) in self.run_count.iter().enumerate() {
+            for r in chunk_runs(c, count) {
+                start[r.key as usize + 1] += r.len;
+                rstart[r.key as usize + 1] += 1;
             }
-            run_len += 1;
-        }
-        if run_len > 0 {
-            start[run_key as usize + 1] += run_len;
         }
         for b in 0..nb {
             start[b + 1] += start[b];
+            rstart[b + 1] += rstart[b];
         }
         let fill = &mut self.cursor;
         fill.clear();
-        fill.extend_from_slice(&start[..nb]);
-        // Same run trick for the placement: within a run the slots are consecutive.
-        let order = &mut self.order;
-        let mut i = 0usize;
-        let key = &self.key;
-        while i < n {
-            let k = key[i];
-            let mut e = i + 1;
-            while e < n && key[e] == k {
-                e += 1;
+        fill.extend_from_slice(&rstart[..nb]);
+        self.run_order.resize(rstart[nb] as usize, Run::default());
+        for (c, &count) in self.run_count.iter().enumerate() {
+            for r in chunk_runs(c, count) {
+                self.run_order[fill[r.key as usize] as usize] = *r;
+                fill[r.key as usize] += 1;
             }
-            let c = fill[k as usize] as usize;
-            for (slot, idx) in order[c..c + (e - i)].iter_mut().zip(i as u32..e as u32) {
-                *slot = idx;
-            }
-            fill[k as usize] += (e - i) as u32;
-            i = e;
         }
-        self.sorted_len = n;
+        self.sorted_len = self.key.len();
+    }
+}
+
+/// P2G arrival counts (scratch; a clone starts from zero).
+#[derive(Debug)]
+struct Arrivals(Vec<AtomicU32>);
+impl Clone for Arrivals {
+    fn clone(&self) -> Self {
+        Self(self.0.iter().map(|_| AtomicU32::new(0)).collect())
+    }
+}
+
+/// A run of consecutive points with the same band key.
+#[derive(Debug, Clone, Copy, Default)]
+struct Run {
+    start: u32,
+    len: u32,
+    key: u32,
+}
+
+/// Write the runs of equal key of `keys` (points `first`, `first` + 1, …) to `out`; returns
+/// their number.
+fn key_runs(keys: &[u32], first: usize, out: &mut [Run]) -> u32 {
+    let mut n = 0usize;
+    let mut i = 0usize;
+    while i < keys.len() {
+        let k = keys[i];
+        let mut e = i + 1;
+        while e < keys.len() && keys[e] == k {
+            e += 1;
+        }
+        out[n] = Run { start: (first + i) as u32, len: (e - i) as u32, key: k };
+        n += 1;
+        i = e;
+    }
+    n as u32
+}
+
+/// The grid's nodes, shared by the P2G ranges (see `Solver::p2g` for why their writes
+/// never overlap in time).
+#[derive(Clone, Copy)]
+struct NodesPtr(*mut Node);
+// SAFETY: only dereferenced in `Solver::p2g`, where concurrent writes go to disjoint columns.
+unsafe impl Send for NodesPtr {}
+unsafe impl Sync for NodesPtr {}
+impl NodesPtr {
+    #[inline(always)]
+    fn get(self) -> *mut Node {
+        self.0
     }
 }
 
@@ -585,7 +688,7 @@ struct Kernel {
     oy: Real,
     h: Real,
     lp: Real,
-    ny: usize,
+    geo: Geom,
     nb: usize,
     flip: Real,
     dt: Real,
@@ -595,56 +698,6 @@ struct Kernel {
 }
 
 impl Kernel {
-    /// g2p for one point: FLIP/PIC velocity, displacement, optionally the velocity gradient.
-    #[inline(always)]
-    fn g2p(&self, p: &mut Point, nodes: &[Node], want_grad: bool) {
-        let st = Stencil::at(p.x.x, p.x.y, p.base, self.ox, self.oy, self.h, self.lp);
-        let ny = self.ny;
-        let mut vg = Vec2::zeros();
-        let mut dv = Vec2::zeros();
-        let mut l = Mat2::zeros();
-        for a in 0..3 {
-            let base = (st.i0 + a) * ny + st.j0;
-            for (b, n) in nodes[base..base + 3].iter().enumerate() {
-                let w = st.wx[a] * st.wy[b];
-                vg += n.v * w;
-                dv += n.dv * w;
-                if want_grad {
-                    let gx = st.dx[a] * st.wy[b];
-                    let gy = st.wx[a] * st.dy[b];
-                    l[(0, 0)] += n.v.x * gx;
-                    l[(0, 1)] += n.v.x * gy;
-                    l[(1, 0)] += n.v.y * gx;
-                    l[(1, 1)] += n.v.y * gy;
-                }
-            }
-        }
-        p.v = (p.v + dv) * self.flip + vg * (1.0 - self.flip);
-        p.dx = vg * self.dt;
-        if want_grad {
-            p.grad_v = l;
-        }
-    }
-
-    /// MUSL: velocity gradient from the re-mapped nodal velocities.
-    #[inline(always)]
-    fn gradient(&self, p: &mut Point, nodes: &[Node]) {
-        let st = Stencil::at(p.x.x, p.x.y, p.base, self.ox, self.oy, self.h, self.lp);
-        let mut l = Mat2::zeros();
-        for a in 0..3 {
-            let base = (st.i0 + a) * self.ny + st.j0;
-            for (b, n) in nodes[base..base + 3].iter().enumerate() {
-                let gx = st.dx[a] * st.wy[b];
-                let gy = st.wx[a] * st.dy[b];
-                l[(0, 0)] += n.v.x * gx;
-                l[(0, 1)] += n.v.x * gy;
-                l[(1, 0)] += n.v.y * gx;
-                l[(1, 1)] += n.v.y * gy;
-            }
-        }
-        p.grad_v = l;
-    }
-
     /// Kinematics (J, volume) and the constitutive update of a chunk of points.
     ///
     /// Density-scaled moduli: a point uses E V_0/V (ν unchanged), so its P-wave speed
