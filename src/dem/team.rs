@@ -184,6 +184,13 @@ pub(crate) fn dismiss() {
     }
 }
 
+/// Whether this thread leads a team whose helpers are still with it.
+pub(crate) fn active() -> bool {
+    let t = CURRENT.with(|c| c.get());
+    // SAFETY: as in `for_chunks`
+    !t.is_null() && !unsafe { &*t }.quit.load(Relaxed)
+}
+
 /// `f(c)` for every chunk `c` in `0..nc`: on the current team if there is one, else in
 /// order on this thread.
 pub(crate) fn for_chunks(nc: usize, f: &(dyn Fn(usize) + Sync)) {

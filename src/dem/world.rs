@@ -484,8 +484,9 @@ impl World {
     fn steps_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
         // between two steps of this call, the end of one and the start of the next run as
         // one team phase (`World::step_boundary`), except where the watchdog looks at the
-        // state between them
-        let boundary = n >= 2 && self.boundary_ok::<IMP>();
+        // state between them; on one thread the separate passes (one kick loop over
+        // v and ω) are as fast
+        let boundary = n >= 2 && crate::dem::team::active() && self.boundary_ok::<IMP>();
         let wd = self.params.watchdog.every;
         let mut first = None;
         for k in 0..n {
