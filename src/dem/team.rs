@@ -51,6 +51,8 @@ pub(crate) struct Team {
     /// The current phase's job; read only by a thread that has claimed one of its chunks
     /// (the lead does not replace it before every claimed chunk is finished).
     job: UnsafeCell<Option<Job>>,
+    /// Divisor of the chunks left that one claim takes ([`Team::grab`]).
+    share: usize,
 }
 
 // SAFETY: `job` is written by the lead only while no chunk of the previous phase is
@@ -62,7 +64,15 @@ unsafe impl Sync for Team {}
 fn unpack(s: u64) -> (u64, usize, usize) { (s >> (2 * BITS), ((s >> BITS) & MASK) as usize, (s & MASK) as usize) }
 
 impl Team {
-    fn new() -> Self { Team { state: AtomicU64::new(0), done: AtomicUsize::new(0), quit: AtomicBool::new(false), job: UnsafeCell::new(None) } }
+    fn new(threads: usize) -> Self { Team { state: AtomicU64::new(0), done: AtomicUsize::new(0), quit: AtomicBool::new(false), job: UnsafeCell::new(None), share: 2 * threads.max(1) } }
+
+    /// How many of `left` unclaimed chunks one claim takes: a share of what is left
+    /// (guided scheduling), at least one. Every claim is a compare-exchange on the line
+    /// both threads spin on, a cross-core transfer; claiming a few chunks at once halves
+    /// them, and the last claims of a phase are still single chunks (the balance at its
+    /// end is the same).
+    #[inline(always)]
+    fn grab(&self, left: usize) -> usize { (left / self.share).max(1) }
 
     /// Lead: run `f(c)` for every `c` in `0..nc` on the team; returns when all are done.
     fn run(&self, nc: usize, f: &(dyn Fn(usize) + Sync)) {
@@ -83,9 +93,10 @@ impl Team {
             let s = self.state.load(Relaxed);
             let (_, front, back) = unpack(s);
             if front >= back { break; }
-            if self.state.compare_exchange_weak(s, s + (1 << BITS), Acquire, Relaxed).is_ok() {
-                f(front);
-                mine += 1;
+            let k = self.grab(back - front);
+            if self.state.compare_exchange_weak(s, s + ((k as u64) << BITS), Acquire, Relaxed).is_ok() {
+                (front..front + k).for_each(f);
+                mine += k;
             }
         }
         // wait for the chunks helpers claimed
@@ -102,12 +113,14 @@ impl Team {
             let s = self.state.load(Acquire);
             let (_, front, back) = unpack(s);
             if front < back {
-                if self.state.compare_exchange_weak(s, s - 1, AcqRel, Relaxed).is_ok() {
-                    // SAFETY: a chunk of the current phase is claimed, so the job is set and
+                let k = self.grab(back - front);
+                if self.state.compare_exchange_weak(s, s - k as u64, AcqRel, Relaxed).is_ok() {
+                    // SAFETY: chunks of the current phase are claimed, so the job is set and
                     // outlives this call (the lead waits for `done`).
                     let f = unsafe { &*(*self.job.get()).unwrap_unchecked() };
-                    f(back - 1);
-                    self.done.fetch_add(1, Release);
+                    // from the back down, as one chunk per claim did
+                    (back - k..back).rev().for_each(f);
+                    self.done.fetch_add(k, Release);
                 }
                 spins = 0;
                 continue;
@@ -150,7 +163,7 @@ pub(crate) fn with_team<R: Send>(big: bool, f: impl FnOnce() -> R + Send) -> R {
     if threads < 2 || !big || !CURRENT.with(|c| c.get().is_null()) {
         return f();
     }
-    let team = Team::new();
+    let team = Team::new(threads);
     rayon::scope(|s| {
         for _ in 1..threads {
             s.spawn(|_| team.help());
@@ -169,6 +182,13 @@ pub(crate) fn dismiss() {
         // SAFETY: as in `for_chunks`
         unsafe { &*t }.quit.store(true, Release);
     }
+}
+
+/// Whether this thread leads a team whose helpers are still with it.
+pub(crate) fn active() -> bool {
+    let t = CURRENT.with(|c| c.get());
+    // SAFETY: as in `for_chunks`
+    !t.is_null() && !unsafe { &*t }.quit.load(Relaxed)
 }
 
 /// `f(c)` for every chunk `c` in `0..nc`: on the current team if there is one, else in

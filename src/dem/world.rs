@@ -2,9 +2,12 @@
 //!
 //! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` (pair
 //! pass) → `grain_pass` (per grain chunk: force gather, grain–wall contacts, second half
-//! kick) → `integrate(rolling dashpot)` → `ledger` → `watchdog`. The phase timers keep the
-//! names contacts / gather / walls / integrate; the grain pass's wall time is apportioned to
-//! them by each part's CPU time per chunk.
+//! kick) → `integrate(rolling dashpot)` → `ledger` → `watchdog`. With the implicit
+//! dashpot, the end of one step and the first half of the next (between two steps of one
+//! `run`) are one phase, `step_boundary`: the spin work (sweeps, spin kick) on one thread
+//! beside the translational kick and drift, and θ advances in the grain pass. The phase
+//! timers keep the names contacts / gather / walls / integrate; the grain pass's wall time
+//! is apportioned to them by each part's CPU time per chunk.
 //!
 //! Velocity Verlet (kick–drift–kick); contact forces at x^{n+1} use v^{n+½} (as LAMMPS
 //! `fix nve/sphere`). Physics terms are picked once per [`World::run`] call by matching
@@ -479,17 +482,31 @@ impl World {
     }
 
     fn steps_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
-        for _ in 0..n {
-            self.step_with::<R, IMP, L>()?;
+        // between two steps of this call, the end of one and the start of the next run as
+        // one team phase (`World::step_boundary`), except where the watchdog looks at the
+        // state between them; on one thread the separate passes (one kick loop over
+        // v and ω) are as fast
+        let boundary = n >= 2 && crate::dem::team::active() && self.boundary_ok::<IMP>();
+        let wd = self.params.watchdog.every;
+        let mut first = None;
+        for k in 0..n {
+            let join = boundary && k + 1 < n && !(wd > 0 && (self.steps + 1) % wd == 0);
+            first = self.step_with::<R, IMP, L>(first, join)?;
         }
         Ok(())
     }
 
-    fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self) -> Result<(), DemError> {
+    /// One step; `first`: its first half was done by the previous step's boundary (with
+    /// whether the list must be rebuilt); `join`: end with [`World::step_boundary`] (the
+    /// next step's first half, returned as its `first`).
+    fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self, first: Option<bool>, join: bool) -> Result<Option<bool>, DemError> {
         let dt = self.params.dt;
         let on = self.timing;
         let t0 = Clock::now(on);
-        let moved = self.integrate_first_half::<IMP, L>();
+        let moved = match first {
+            Some(m) => m,
+            None => self.integrate_first_half::<IMP, L>(),
+        };
         let t1 = Clock::now(on);
         self.timers.integrate += t0.to(t1);
         if moved { self.refresh_neighbors(); }
@@ -498,6 +515,13 @@ impl World {
         // contacts, walls and the second half kick (fused per grain chunk)
         self.compute_forces::<R, IMP, L, true>(dt);
         let t3 = Clock::now(on);
+        if join {
+            let next = self.step_boundary::<L>();
+            self.t += dt;
+            self.steps += 1;
+            self.timers.integrate += t3.elapsed();
+            return Ok(Some(next));
+        }
         self.integrate_second_half::<IMP, L>();
         self.t += dt;
         self.steps += 1;
@@ -508,7 +532,7 @@ impl World {
             self.watchdog()?;
         }
         self.timers.watchdog += t4.elapsed();
-        Ok(())
+        Ok(None)
     }
 
     fn refresh_neighbors(&mut self) { self.rebuild(); }
@@ -703,8 +727,22 @@ impl World {
         let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
         let live = Ptr(self.wlive.as_mut_ptr());
         let h = 0.5 * self.params.dt;
+        let dt_step = self.params.dt;
+        let th = Ptr(s.theta.as_mut_ptr());
         chunked(n, GRAIN_CHUNK, &mut self.gpartials, move |lo, hi| {
             let t0 = Clock::now(on);
+            if IMP && KICK {
+                // θ ← θ + Δt ω of the step's first half (ω after the first dashpot sweep;
+                // see `World::integrate_first_half`)
+                // SAFETY: this chunk's grains only
+                let (thp, wp) = (th, w);
+                unsafe {
+                    let (th, w) = (std::slice::from_raw_parts_mut(thp.0.add(lo), hi - lo), std::slice::from_raw_parts(wp.0.add(lo), hi - lo));
+                    for a in 0..hi - lo {
+                        th[a] += dt_step * w[a];
+                    }
+                }
+            }
             // (1) gather per grain, in increasing pair order
             for a in lo..hi {
                 let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
