@@ -235,6 +235,9 @@ pub struct World {
     /// The probe's choice (team or alone) and the step until which it holds.
     pub(crate) team_on: bool,
     pub(crate) team_until: u64,
+    /// Probes lost by the team in a row (a lost probe is retried after TEAM_SEGMENT / 16
+    /// steps, doubling with every further loss up to TEAM_SEGMENT / 4).
+    pub(crate) team_lost: u32,
     pub(crate) nl: NeighborList,
     pub(crate) wall_hist: Vec<ContactState>,
     pub(crate) wall_cn: Vec<Real>,
@@ -294,6 +297,7 @@ impl World {
             timing: false,
             team_on: false,
             team_until: 0,
+            team_lost: 0,
             nl: NeighborList::default(),
             wall_hist: Vec::new(),
             wall_cn: Vec::new(),
@@ -460,8 +464,12 @@ impl World {
                     let team = t1.elapsed().as_secs_f64() / (TEAM_PROBE - TEAM_PROBE / 4) as f64;
                     // the team must be clearly faster: a short probe is noisy
                     self.team_on = team < 0.9 * solo.as_secs_f64() / TEAM_PROBE as f64;
-                    // a lost probe is retried sooner (a busy moment, or noise)
-                    self.team_until = self.steps + if self.team_on { TEAM_SEGMENT } else { TEAM_SEGMENT / 4 };
+                    // a lost probe is retried sooner: after 256 steps at first (a moment
+                    // when the other core was busy, or noise, should not cost a whole
+                    // segment), backing off to 1024 while the team keeps losing (a loaded
+                    // machine, where every team probe is slow)
+                    self.team_lost = if self.team_on { 0 } else { (self.team_lost + 1).min(3) };
+                    self.team_until = self.steps + if self.team_on { TEAM_SEGMENT } else { (TEAM_SEGMENT / 16) << (self.team_lost - 1) };
                     if !self.team_on {
                         crate::dem::team::dismiss();
                     }
