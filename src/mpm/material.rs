@@ -40,7 +40,7 @@ impl Elastic {
         Self { young, poisson, g, lambda, inv_young: 1.0 / young }
     }
     /// Moduli divided by the Jacobian `j` (density-scaled moduli, see `solver.rs`).
-    #[inline]
+    #[inline(always)]
     pub fn scaled_by_jacobian(&self, j: Real) -> Self {
         let k = 1.0 / j;
         Self { young: self.young * k, poisson: self.poisson, g: self.g * k, lambda: self.lambda * k, inv_young: self.inv_young * j }
@@ -51,7 +51,7 @@ impl Elastic {
         Self { young: self.young * k, poisson: self.poisson, g: self.g * k, lambda: self.lambda * k, inv_young: self.inv_young / k }
     }
     /// Elastic strain of a principal stress triple: ε_i = ((1+ν)σ_i − ν tr σ)/E.
-    #[inline]
+    #[inline(always)]
     pub fn strain_of(&self, s: [Real; 3]) -> [Real; 3] {
         let tr = s[0] + s[1] + s[2];
         let k = self.inv_young;
@@ -68,7 +68,7 @@ impl Elastic {
         let sq = s.xx * s.xx + s.yy * s.yy + s.zz * s.zz + 2.0 * s.xy * s.xy;
         0.5 * ((1.0 + self.poisson) * sq - self.poisson * tr * tr) * self.inv_young
     }
-    #[inline]
+    #[inline(always)]
     fn d_times(&self, n: [Real; 3]) -> [Real; 3] {
         let t = self.lambda * (n[0] + n[1] + n[2]);
         [t + 2.0 * self.g * n[0], t + 2.0 * self.g * n[1], t + 2.0 * self.g * n[2]]
@@ -102,19 +102,20 @@ impl McSurface {
         Self { sin_phi: p.sin(), cos_phi: p.cos(), sin_psi: sp, cohesion, tension_cutoff, face_eq }
     }
     /// From a friction coefficient μ = tan φ (μ(I) models).
-    #[inline]
+    #[inline(always)]
     pub fn with_mu(&self, mu: Real) -> Self {
         let r = 1.0 / (1.0 + mu * mu).sqrt();
         Self { sin_phi: mu * r, cos_phi: r, ..*self }
     }
     /// Yield function of principal values sorted descending.
-    #[inline]
+    #[inline(always)]
     pub fn yield_fn(&self, s1: Real, s3: Real) -> Real {
         (s1 - s3) + (s1 + s3) * self.sin_phi - 2.0 * self.cohesion * self.cos_phi
     }
     /// Apex stress c·cot φ [Pa] (0 for c = 0).
+    #[inline(always)]
     pub fn apex(&self) -> Real {
-        if self.cohesion == 0.0 { 0.0 } else { self.cohesion * self.cos_phi / self.sin_phi }
+        sel(self.cohesion == 0.0, 0.0, self.cohesion * self.cos_phi / self.sin_phi)
     }
 }
 
@@ -148,7 +149,7 @@ pub fn mohr_coulomb_return(trial: [Real; 3], el: &Elastic, mc: &McSurface) -> ([
     if trial[o[0]] < trial[o[1]] { o.swap(0, 1); }
     if trial[o[1]] < trial[o[2]] { o.swap(1, 2); }
     if trial[o[0]] < trial[o[1]] { o.swap(0, 1); }
-    let (out, region, _) = return_sorted([trial[o[0]], trial[o[1]], trial[o[2]]], el, mc);
+    let Returned { out, region, .. } = return_sorted([trial[o[0]], trial[o[1]], trial[o[2]]], el, mc);
     let mut res = [0.0; 3];
     for k in 0..3 {
         res[o[k]] = out[k];
@@ -156,64 +157,91 @@ pub fn mohr_coulomb_return(trial: [Real; 3], el: &Elastic, mc: &McSurface) -> ([
     (res, region)
 }
 
-/// The return mapping proper, for principal values sorted σ1 ≥ σ2 ≥ σ3. Also returns the
-/// plastic multiplier of a main-face return (0 otherwise).
-#[inline]
-fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> ([Real; 3], Region, Real) {
-    let mut gam_face = 0.0;
+/// `if c { a } else { b }` for floats, as a select (no branch): through the bit patterns,
+/// which LLVM keeps a blend, where a float select of a division may become a branch again.
+#[inline(always)]
+pub(crate) fn sel(c: bool, a: Real, b: Real) -> Real {
+    let m = (c as u64).wrapping_neg();
+    Real::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
+/// Outcome of [`return_sorted`].
+#[derive(Debug, Clone, Copy)]
+struct Returned {
+    /// Admissible principal stresses (sorted order).
+    out: [Real; 3],
+    region: Region,
+    /// Plastic multiplier of the main-face return (meaningful on the face only).
+    gam: Real,
+    /// The trial is kept (elastic within round-off, even if clipped within round-off).
+    unchanged: bool,
+    /// Returned to the main face.
+    face: bool,
+}
+
+/// The return mapping proper, for principal values sorted σ1 ≥ σ2 ≥ σ3.
+///
+/// Without a branch on the data: every candidate (main face, the edge on the side the face
+/// return overshot, apex, tension cut-off) is evaluated and the result chosen by selects.
+/// In a granular flow most points are plastic and the face-or-edge decision is close to
+/// random from point to point, so a branchy return mispredicts about once per point; this
+/// one is also what a solver runs over several points per vector instruction
+/// (`stress_block`). Divisions of candidates not chosen may give ±∞ or NaN: they are
+/// selected away.
+#[inline(always)]
+fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> Returned {
     let scale = s[0].abs().max(s[2].abs()).max(mc.cohesion) + 1e-300;
+    let tol = 1e-12 * scale;
     let fa = mc.yield_fn(s[0], s[2]);
-    let (mut out, mut region) = if fa <= 1e-12 * scale {
-        (s, Region::Elastic)
-    } else {
-        let (sf, sp) = (mc.sin_phi, mc.sin_psi);
-        // Main plane (1, 3): flow direction n_g, normal n_f.
-        let nf_a = [1.0 + sf, 0.0, -(1.0 - sf)];
-        let da = el.d_times([1.0 + sp, 0.0, -(1.0 - sp)]);
-        let gam = fa / dot3(nf_a, da);
-        let face = [s[0] - gam * da[0], s[1] - gam * da[1], s[2] - gam * da[2]];
-        if face[0] >= face[1] && face[1] >= face[2] {
-            gam_face = gam;
-            (face, Region::Face)
-        } else {
-            // Edge: a second plane becomes active.
-            let (nf_b, ng_b, fb, reg) = if face[1] > face[0] {
-                // σ2 overtook σ1 → edge σ1 = σ2, plane (2, 3).
-                ([0.0, 1.0 + sf, -(1.0 - sf)], [0.0, 1.0 + sp, -(1.0 - sp)], mc.yield_fn(s[1], s[2]), Region::EdgeCompression)
-            } else {
-                // σ2 fell below σ3 → edge σ2 = σ3, plane (1, 2).
-                ([1.0 + sf, -(1.0 - sf), 0.0], [1.0 + sp, -(1.0 - sp), 0.0], mc.yield_fn(s[0], s[1]), Region::EdgeExtension)
-            };
-            let db = el.d_times(ng_b);
-            let (a11, a12, a21, a22) = (dot3(nf_a, da), dot3(nf_a, db), dot3(nf_b, da), dot3(nf_b, db));
-            let det = a11 * a22 - a12 * a21;
-            let ga = (a22 * fa - a12 * fb) / det;
-            let gb = (a11 * fb - a21 * fa) / det;
-            let edge = [
-                s[0] - ga * da[0] - gb * db[0],
-                s[1] - ga * da[1] - gb * db[1],
-                s[2] - ga * da[2] - gb * db[2],
-            ];
-            let tol = 1e-12 * scale;
-            if ga >= 0.0 && gb >= 0.0 && edge[0] >= edge[2] - tol && det.abs() > 0.0 {
-                (edge, reg)
-            } else {
-                let a = mc.apex();
-                ([a, a, a], Region::Apex)
-            }
-        }
-    };
+    let elastic = fa <= tol;
+    let (sf, sp) = (mc.sin_phi, mc.sin_psi);
+    // Main plane (1, 3): flow direction n_g, normal n_f.
+    let nf_a = [1.0 + sf, 0.0, -(1.0 - sf)];
+    let da = el.d_times([1.0 + sp, 0.0, -(1.0 - sp)]);
+    let gam = fa / dot3(nf_a, da);
+    let face = [s[0] - gam * da[0], s[1] - gam * da[1], s[2] - gam * da[2]];
+    let on_face = (face[0] >= face[1]) & (face[1] >= face[2]);
+    // Edge, a second plane active: σ2 overtook σ1 → edge σ1 = σ2, plane (2, 3); else σ2 fell
+    // below σ3 → edge σ2 = σ3, plane (1, 2).
+    let comp = face[1] > face[0];
+    let nf_b = [sel(comp, 0.0, 1.0 + sf), sel(comp, 1.0 + sf, -(1.0 - sf)), sel(comp, -(1.0 - sf), 0.0)];
+    let ng_b = [sel(comp, 0.0, 1.0 + sp), sel(comp, 1.0 + sp, -(1.0 - sp)), sel(comp, -(1.0 - sp), 0.0)];
+    let fb = mc.yield_fn(sel(comp, s[1], s[0]), sel(comp, s[2], s[1]));
+    let db = el.d_times(ng_b);
+    let (a11, a12, a21, a22) = (dot3(nf_a, da), dot3(nf_a, db), dot3(nf_b, da), dot3(nf_b, db));
+    let det = a11 * a22 - a12 * a21;
+    let ga = (a22 * fa - a12 * fb) / det;
+    let gb = (a11 * fb - a21 * fa) / det;
+    let edge = [
+        s[0] - ga * da[0] - gb * db[0],
+        s[1] - ga * da[1] - gb * db[1],
+        s[2] - ga * da[2] - gb * db[2],
+    ];
+    let edge_ok = (ga >= 0.0) & (gb >= 0.0) & (edge[0] >= edge[2] - tol) & (det.abs() > 0.0);
+    // Apex (c cot φ, hydrostatic).
+    let apex = mc.apex();
+    let pick = |k: usize| sel(elastic, s[k], sel(on_face, face[k], sel(edge_ok, edge[k], apex)));
+    let mut out = [pick(0), pick(1), pick(2)];
+    let is_apex = !elastic & !on_face & !edge_ok;
     // Rankine tension cut-off (round-off above it is clipped silently).
-    if out[0] > mc.tension_cutoff {
-        let t = mc.tension_cutoff;
-        if out[0] - t > 1e-12 * scale && region != Region::Apex {
-            region = Region::Tension;
-        }
-        for v in out.iter_mut() {
-            if *v > t { *v = t; }
-        }
+    let t = mc.tension_cutoff;
+    let clip = out[0] > t;
+    let tension = clip & (out[0] - t > tol) & !is_apex;
+    for v in out.iter_mut() {
+        *v = sel(clip & (*v > t), t, *v);
     }
-    (out, region, gam_face)
+    let region = if tension {
+        Region::Tension
+    } else if elastic {
+        Region::Elastic
+    } else if on_face {
+        Region::Face
+    } else if edge_ok {
+        if comp { Region::EdgeCompression } else { Region::EdgeExtension }
+    } else {
+        Region::Apex
+    };
+    Returned { out, region, gam, unchanged: elastic & !tension, face: !elastic & on_face & !tension }
 }
 
 /// Result of one point stress update.
@@ -230,7 +258,7 @@ pub struct StressUpdate {
 }
 
 /// Elastic trial (Jaumann-rotated) stress for a velocity gradient `l` over `dt`.
-#[inline]
+#[inline(always)]
 pub fn elastic_trial(s: &Stress, l: &Mat2, dt: Real, el: &Elastic) -> Stress {
     let exx = l[(0, 0)] * dt;
     let eyy = l[(1, 1)] * dt;
@@ -271,50 +299,47 @@ pub(crate) fn mc_elastic_test(tr: &Stress, mc: &McSurface) -> (bool, Real) {
 }
 
 /// Second half of [`mohr_coulomb`] for a trial stress that failed the elastic test; `r` from
-/// [`mc_elastic_test`].
-#[inline]
+/// [`mc_elastic_test`]. Branch-free (see [`return_sorted`]).
+#[inline(always)]
 pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: Real) -> StressUpdate {
     let c0 = 0.5 * (tr.xx + tr.yy);
     let hd = 0.5 * (tr.xx - tr.yy);
     let (a, b, z) = (c0 + r, c0 - r, tr.zz);
-    // In-plane a ≥ b: only the place of σ_zz has to be found. `st` sorted trial, `perm`
-    // maps sorted positions back to (a, b, z).
-    let (st, perm) = if z >= a {
-        ([z, a, b], [1usize, 2, 0])
-    } else if z >= b {
-        ([a, z, b], [0, 2, 1])
-    } else {
-        ([a, b, z], [0, 1, 2])
-    };
-    let (so, region, gam) = return_sorted(st, el, mc);
-    if region == Region::Elastic {
-        return StressUpdate { stress: tr, region, plastic_work: 0.0, d_eps_p: 0.0 };
-    }
-    // Plastic strain increment: on the face it is γ n_g exactly (no compliance, no sqrt).
-    let (plastic_work, d_eps_p) = if region == Region::Face {
-        let sp = mc.sin_psi;
-        (gam * ((1.0 + sp) * so[0] - (1.0 - sp) * so[2]), gam * mc.face_eq)
-    } else {
-        let de = el.strain_of([st[0] - so[0], st[1] - so[1], st[2] - so[2]]);
-        let m = (de[0] + de[1] + de[2]) / 3.0;
-        let dev2 = (de[0] - m).powi(2) + (de[1] - m).powi(2) + (de[2] - m).powi(2);
-        (dot3(so, de), (2.0 / 3.0 * dev2).sqrt())
-    };
-    let s = [so[perm[0]], so[perm[1]], so[perm[2]]];
-    let (c2, s2) = if r > 0.0 {
-        let ir = 1.0 / r;
-        (hd * ir, tr.xy * ir)
-    } else {
-        (1.0, 0.0)
-    };
+    // In-plane a ≥ b: only the place of σ_zz has to be found. Sorted trial: z ≥ a →
+    // (z, a, b); z ≥ b → (a, z, b); else (a, b, z).
+    let z_top = z >= a;
+    let z_mid = !z_top & (z >= b);
+    let z_up = z_top | z_mid;
+    let st = [sel(z_top, z, a), sel(z_top, a, sel(z_mid, z, b)), sel(z_up, b, z)];
+    let Returned { out: so, region, gam, unchanged, face } = return_sorted(st, el, mc);
+    // Plastic strain increment: on the face it is γ n_g exactly (no compliance, no sqrt);
+    // elsewhere from the stress correction.
+    let sp = mc.sin_psi;
+    let (pw_face, ep_face) = (gam * ((1.0 + sp) * so[0] - (1.0 - sp) * so[2]), gam * mc.face_eq);
+    let de = el.strain_of([st[0] - so[0], st[1] - so[1], st[2] - so[2]]);
+    let m = (de[0] + de[1] + de[2]) / 3.0;
+    let dev2 = (de[0] - m) * (de[0] - m) + (de[1] - m) * (de[1] - m) + (de[2] - m) * (de[2] - m);
+    let (pw_gen, ep_gen) = (dot3(so, de), (2.0 / 3.0 * dev2).sqrt());
+    let plastic_work = sel(unchanged, 0.0, sel(face, pw_face, pw_gen));
+    let d_eps_p = sel(unchanged, 0.0, sel(face, ep_face, ep_gen));
+    // Back to the (a, b, z) order and the in-plane frame (coaxial with the trial).
+    let s = [sel(z_top, so[1], so[0]), sel(z_up, so[2], so[1]), sel(z_top, so[0], sel(z_mid, so[1], so[2]))];
+    let ir = 1.0 / r;
+    let pos = r > 0.0;
+    let (c2, s2) = (sel(pos, hd * ir, 1.0), sel(pos, tr.xy * ir, 0.0));
     let cn = 0.5 * (s[0] + s[1]);
     let rn = 0.5 * (s[0] - s[1]);
-    let stress = Stress { xx: cn + rn * c2, yy: cn - rn * c2, xy: rn * s2, zz: s[2] };
+    let stress = Stress {
+        xx: sel(unchanged, tr.xx, cn + rn * c2),
+        yy: sel(unchanged, tr.yy, cn - rn * c2),
+        xy: sel(unchanged, tr.xy, rn * s2),
+        zz: sel(unchanged, tr.zz, s[2]),
+    };
     StressUpdate { stress, region, plastic_work, d_eps_p }
 }
 
 /// Shear rate γ̇ = √(2 D':D') of a plane-strain velocity gradient [1/s].
-#[inline]
+#[inline(always)]
 pub fn shear_rate(l: &Mat2) -> Real {
     let dxx = l[(0, 0)];
     let dyy = l[(1, 1)];
@@ -325,7 +350,7 @@ pub fn shear_rate(l: &Mat2) -> Real {
 }
 
 /// Inertial number I = γ̇ d̄/√(p/ρ_s), capped at `i_max` (also used where p ≤ 0).
-#[inline]
+#[inline(always)]
 pub fn inertial_number(gamma_dot: Real, p: Real, d: Real, rho_s: Real, i_max: Real) -> Real {
     if p <= 0.0 {
         return if gamma_dot > 0.0 { i_max } else { 0.0 };
@@ -334,7 +359,7 @@ pub fn inertial_number(gamma_dot: Real, p: Real, d: Real, rho_s: Real, i_max: Re
 }
 
 /// Friction coefficient μ(I) of a μ(I) model (None for the other models).
-#[inline]
+#[inline(always)]
 pub fn mu_of_i(model: &Model, i: Real) -> Option<Real> {
     match *model {
         Model::MuILinear { mu_min, b } => Some(mu_min + b * i),
