@@ -12,3 +12,13 @@ pub type Mat2 = nalgebra::Matrix2<Real>;
 pub const G: Real = 9.81;
 /// π, re-exported so physics code reads like the thesis.
 pub const PI: Real = std::f64::consts::PI;
+
+/// `if c { a } else { b }` for floats, as a select (no branch): through the bit patterns,
+/// which LLVM keeps a blend, where a float select whose operand is a division may become a
+/// branch again. The branch-free kernels (the DEM's batched contact law, the MPM's
+/// Mohr–Coulomb return) choose between candidates with it, so they vectorise.
+#[inline(always)]
+pub fn select(c: bool, a: Real, b: Real) -> Real {
+    let m = (c as u64).wrapping_neg();
+    Real::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}

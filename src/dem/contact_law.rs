@@ -13,7 +13,7 @@
 
 use crate::dem::params::ContactParams;
 use crate::dem::state::ContactState;
-use crate::math::{Real, Vec2};
+use crate::math::{Real, Vec2, select};
 
 /// Law coefficients of one contact family, derived once from [`ContactParams`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,15 +112,6 @@ pub struct PairOut {
     pub roll: RollDashpot,
     /// Dissipation booked this step (only filled with the ledger on).
     pub work: PairWork,
-}
-
-/// `if c { a } else { b }` for floats, as a select (no branch).
-#[inline(always)]
-fn select(c: bool, a: Real, b: Real) -> Real {
-    // through the bit patterns: LLVM keeps this a blend, where it may turn a float select
-    // whose operand is a division back into a branch
-    let m = (c as u64).wrapping_neg();
-    Real::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
 /// The contact law. `ROLLING`: rolling resistance present; `IMPLICIT`: the rolling dashpot

@@ -15,7 +15,7 @@
 
 use super::params::{Material, Model};
 use super::particles::Stress;
-use crate::math::{Mat2, Real};
+use crate::math::{Mat2, Real, select};
 
 /// Elastic constants.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -115,7 +115,7 @@ impl McSurface {
     /// Apex stress c·cot φ [Pa] (0 for c = 0).
     #[inline(always)]
     pub fn apex(&self) -> Real {
-        sel(self.cohesion == 0.0, 0.0, self.cohesion * self.cos_phi / self.sin_phi)
+        select(self.cohesion == 0.0, 0.0, self.cohesion * self.cos_phi / self.sin_phi)
     }
 }
 
@@ -157,14 +157,6 @@ pub fn mohr_coulomb_return(trial: [Real; 3], el: &Elastic, mc: &McSurface) -> ([
     (res, region)
 }
 
-/// `if c { a } else { b }` for floats, as a select (no branch): through the bit patterns,
-/// which LLVM keeps a blend, where a float select of a division may become a branch again.
-#[inline(always)]
-pub(crate) fn sel(c: bool, a: Real, b: Real) -> Real {
-    let m = (c as u64).wrapping_neg();
-    Real::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
-}
-
 /// Outcome of [`return_sorted`].
 #[derive(Debug, Clone, Copy)]
 struct Returned {
@@ -204,9 +196,9 @@ fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> Returned {
     // Edge, a second plane active: σ2 overtook σ1 → edge σ1 = σ2, plane (2, 3); else σ2 fell
     // below σ3 → edge σ2 = σ3, plane (1, 2).
     let comp = face[1] > face[0];
-    let nf_b = [sel(comp, 0.0, 1.0 + sf), sel(comp, 1.0 + sf, -(1.0 - sf)), sel(comp, -(1.0 - sf), 0.0)];
-    let ng_b = [sel(comp, 0.0, 1.0 + sp), sel(comp, 1.0 + sp, -(1.0 - sp)), sel(comp, -(1.0 - sp), 0.0)];
-    let fb = mc.yield_fn(sel(comp, s[1], s[0]), sel(comp, s[2], s[1]));
+    let nf_b = [select(comp, 0.0, 1.0 + sf), select(comp, 1.0 + sf, -(1.0 - sf)), select(comp, -(1.0 - sf), 0.0)];
+    let ng_b = [select(comp, 0.0, 1.0 + sp), select(comp, 1.0 + sp, -(1.0 - sp)), select(comp, -(1.0 - sp), 0.0)];
+    let fb = mc.yield_fn(select(comp, s[1], s[0]), select(comp, s[2], s[1]));
     let db = el.d_times(ng_b);
     let (a11, a12, a21, a22) = (dot3(nf_a, da), dot3(nf_a, db), dot3(nf_b, da), dot3(nf_b, db));
     let det = a11 * a22 - a12 * a21;
@@ -220,7 +212,7 @@ fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> Returned {
     let edge_ok = (ga >= 0.0) & (gb >= 0.0) & (edge[0] >= edge[2] - tol) & (det.abs() > 0.0);
     // Apex (c cot φ, hydrostatic).
     let apex = mc.apex();
-    let pick = |k: usize| sel(elastic, s[k], sel(on_face, face[k], sel(edge_ok, edge[k], apex)));
+    let pick = |k: usize| select(elastic, s[k], select(on_face, face[k], select(edge_ok, edge[k], apex)));
     let mut out = [pick(0), pick(1), pick(2)];
     let is_apex = !elastic & !on_face & !edge_ok;
     // Rankine tension cut-off (round-off above it is clipped silently).
@@ -228,7 +220,7 @@ fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> Returned {
     let clip = out[0] > t;
     let tension = clip & (out[0] - t > tol) & !is_apex;
     for v in out.iter_mut() {
-        *v = sel(clip & (*v > t), t, *v);
+        *v = select(clip & (*v > t), t, *v);
     }
     let region = if tension {
         Region::Tension
@@ -310,7 +302,7 @@ pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: 
     let z_top = z >= a;
     let z_mid = !z_top & (z >= b);
     let z_up = z_top | z_mid;
-    let st = [sel(z_top, z, a), sel(z_top, a, sel(z_mid, z, b)), sel(z_up, b, z)];
+    let st = [select(z_top, z, a), select(z_top, a, select(z_mid, z, b)), select(z_up, b, z)];
     let Returned { out: so, region, gam, unchanged, face } = return_sorted(st, el, mc);
     // Plastic strain increment: on the face it is γ n_g exactly (no compliance, no sqrt);
     // elsewhere from the stress correction.
@@ -320,20 +312,20 @@ pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: 
     let m = (de[0] + de[1] + de[2]) / 3.0;
     let dev2 = (de[0] - m) * (de[0] - m) + (de[1] - m) * (de[1] - m) + (de[2] - m) * (de[2] - m);
     let (pw_gen, ep_gen) = (dot3(so, de), (2.0 / 3.0 * dev2).sqrt());
-    let plastic_work = sel(unchanged, 0.0, sel(face, pw_face, pw_gen));
-    let d_eps_p = sel(unchanged, 0.0, sel(face, ep_face, ep_gen));
+    let plastic_work = select(unchanged, 0.0, select(face, pw_face, pw_gen));
+    let d_eps_p = select(unchanged, 0.0, select(face, ep_face, ep_gen));
     // Back to the (a, b, z) order and the in-plane frame (coaxial with the trial).
-    let s = [sel(z_top, so[1], so[0]), sel(z_up, so[2], so[1]), sel(z_top, so[0], sel(z_mid, so[1], so[2]))];
+    let s = [select(z_top, so[1], so[0]), select(z_up, so[2], so[1]), select(z_top, so[0], select(z_mid, so[1], so[2]))];
     let ir = 1.0 / r;
     let pos = r > 0.0;
-    let (c2, s2) = (sel(pos, hd * ir, 1.0), sel(pos, tr.xy * ir, 0.0));
+    let (c2, s2) = (select(pos, hd * ir, 1.0), select(pos, tr.xy * ir, 0.0));
     let cn = 0.5 * (s[0] + s[1]);
     let rn = 0.5 * (s[0] - s[1]);
     let stress = Stress {
-        xx: sel(unchanged, tr.xx, cn + rn * c2),
-        yy: sel(unchanged, tr.yy, cn - rn * c2),
-        xy: sel(unchanged, tr.xy, rn * s2),
-        zz: sel(unchanged, tr.zz, s[2]),
+        xx: select(unchanged, tr.xx, cn + rn * c2),
+        yy: select(unchanged, tr.yy, cn - rn * c2),
+        xy: select(unchanged, tr.xy, rn * s2),
+        zz: select(unchanged, tr.zz, s[2]),
     };
     StressUpdate { stress, region, plastic_work, d_eps_p }
 }

@@ -14,11 +14,11 @@
 //! the same bits. `tests::block_update_is_bit_identical_to_the_per_point_update` checks it on
 //! random points for every model and surface option.
 
-use super::material::{self, Elastic, McSurface, sel};
+use super::material::{self, Elastic, McSurface};
 use super::particles::Stress;
 use super::params::Model;
 use super::particles::Point;
-use crate::math::{Mat2, Real};
+use crate::math::{Mat2, Real, select};
 
 /// Points per block (lanes of the loop).
 pub(crate) const LANES: usize = 64;
@@ -196,15 +196,15 @@ fn lane<const F: u8>(b: &mut Lanes, i: usize, k: &Consts) {
     let tr = material::elastic_trial(&s, &l, dt, &el);
     let (elastic, r) = material::mc_elastic_test(&tr, &surf);
     let u = material::mohr_coulomb_plastic(tr, &el, &surf, r);
-    b.s[0][i] = sel(elastic, tr.xx, u.stress.xx);
-    b.s[1][i] = sel(elastic, tr.yy, u.stress.yy);
-    b.s[2][i] = sel(elastic, tr.xy, u.stress.xy);
-    b.s[3][i] = sel(elastic, tr.zz, u.stress.zz);
+    b.s[0][i] = select(elastic, tr.xx, u.stress.xx);
+    b.s[1][i] = select(elastic, tr.yy, u.stress.yy);
+    b.s[2][i] = select(elastic, tr.xy, u.stress.xy);
+    b.s[3][i] = select(elastic, tr.zz, u.stress.zz);
     // Points that passed the elastic test keep ε_p and the work untouched; the others add
     // the increment (zero when the return found them elastic), as the per-point code does.
     let vol = b.vol[i];
-    b.eps_p[i] = sel(elastic, b.eps_p[i], b.eps_p[i] + u.d_eps_p);
-    b.work_p[i] = sel(elastic, b.work_p[i], b.work_p[i] + u.plastic_work * vol);
+    b.eps_p[i] = select(elastic, b.eps_p[i], b.eps_p[i] + u.d_eps_p);
+    b.work_p[i] = select(elastic, b.work_p[i], b.work_p[i] + u.plastic_work * vol);
 }
 
 #[cfg(test)]
