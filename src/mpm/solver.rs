@@ -21,10 +21,9 @@
 //! one parallel pass (`Solver::step`); their timers are apportioned from per-chunk timings.
 //!
 //! Mohr–Coulomb and μ(I) points are updated a block of 64 at a time in lanes, several per
-//! vector instruction, with a branch-free return mapping (`stress_block`): most points are
-//! plastic and the face-or-edge decision is close to random, so a per-point branchy return
-//! mispredicts about once per point. Bit-identical to calling `material::mohr_coulomb` per
-//! point.
+//! vector instruction (`stress_block`): the lanes call the per-point `material` functions,
+//! whose return mapping has no branch on the point's data, so the results are those of one
+//! `material::mohr_coulomb` call per point.
 //!
 //! Energy of the wall constraints: booked in `boundary` (friction and normal parts).
 //! Nothing allocates inside a step: the grid, the sort buffers and the per-column work
@@ -708,8 +707,8 @@ impl Kernel {
     /// ejecting points. UNSPEC in the chapter; documented here as our choice.
     ///
     /// Mohr–Coulomb and μ(I) points are updated a block at a time, several per vector
-    /// instruction, with a branch-free return mapping (`stress_block`, bit-identical to the
-    /// per-point `material` functions).
+    /// instruction (`stress_block`, which calls the per-point `material` functions lane by
+    /// lane).
     #[inline(always)]
     fn update_stress(&self, points: &mut [Point]) {
         if let Some(c) = &self.frictional {
