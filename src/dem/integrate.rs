@@ -31,7 +31,9 @@
 
 use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
-use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollLists, U, World, chunked};
+use crate::dem::timers::Clock;
+use crate::dem::passes::Rd;
+use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, RollLists, U, World, chunked};
 use crate::math::Real;
 
 impl World {
@@ -108,7 +110,8 @@ impl World {
         let t0 = crate::dem::timers::Clock::now(self.timing);
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;
-        let led = dashpot_sweep::<L>(&self.roll, self.walls.len(), h, &mut s.w[..], &s.inv_i[..], &s.inertia[..]);
+        // SAFETY: the lists are not written during the sweep
+        let led = unsafe { dashpot_sweep::<L>(&Dashpots::of(&mut self.roll), self.walls.len(), h, &mut s.w[..], &s.inv_i[..], &s.inertia[..]) };
         if L {
             self.ledger += led;
         }
@@ -118,108 +121,105 @@ impl World {
         self.timers.integrate -= el;
     }
 
-    /// Whether [`World::step_boundary`] may stand for the end of one step and the first
-    /// half of the next: the implicit dashpot is on and no grain is prescribed (1/m = 0:
-    /// the kick books the driver's work from the velocities before it, which the
-    /// translational kick of the boundary changes meanwhile).
-    pub(crate) fn boundary_ok<const IMP: bool>(&self) -> bool { IMP && self.state.inv_m.iter().all(|&v| v != 0.0) }
+    /// Whether two steps may be joined ([`World::steps_with`]): the implicit dashpot is on
+    /// and no grain is prescribed (1/m = 0: the kick books the driver's work from the
+    /// velocities before it, which the joined translational kick changes meanwhile).
+    pub(crate) fn join_ok<const IMP: bool>(&self) -> bool { IMP && self.state.inv_m.iter().all(|&v| v != 0.0) }
 
-    /// The end of a step and the first half of the next one as one phase of the thread
-    /// team (implicit dashpot, no prescribed grain: [`World::boundary_ok`]). The second
-    /// dashpot sweep of this step, the next step's spin kick and its first dashpot sweep
-    /// change spins only and run in order as one job (serial: the sweep is Gauss–Seidel),
-    /// while the translational kick and drift of the next step, which neither read nor
-    /// write spins, run in grain chunks beside it — on the other thread instead of after
-    /// the sweeps. Every grain's arithmetic and every sum is the one of
-    /// `integrate_second_half` then `integrate_first_half` (ledger parts added in the
-    /// same order after the phase), so results are bit-identical to them. Moves the walls
-    /// by one step (as `integrate_first_half`); returns whether the list must be rebuilt.
-    pub(crate) fn step_boundary<const L: bool>(&mut self) -> bool {
-        self.paths.rolling_dashpot += 2;
-        let on = self.timing;
-        let dt = self.params.dt;
-        let h = 0.5 * dt;
-        for wall in self.walls.iter_mut() {
-            wall.origin += wall.velocity * dt;
+}
+
+/// What the spin job returns: the ledger parts of its sweep, kick and sweep (in that
+/// order), and the CPU seconds of its sweeps and of its kick.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct SpinOut {
+    pub ledger: [Ledger; 3],
+    pub sweep_s: f64,
+    pub kick_s: f64,
+}
+
+/// The spin work left between two joined steps ([`World::steps_with`]): the first step's
+/// second dashpot sweep, the second step's spin kick and its first sweep, in order (serial:
+/// the sweep is Gauss–Seidel). The sweeps read the dashpots of the last force evaluation
+/// (a rebuild in between keeps them, `World::rebuild`). Every grain's arithmetic and every
+/// sum is that of `integrate_second_half` then `integrate_first_half` (no prescribed
+/// grain: the kick books nothing), so results are bit-identical to them. A job of the
+/// first stage of `World::staged_forces` (see [`crate::dem::passes`] for raw views).
+pub(crate) struct SpinJob<const L: bool> {
+    d: Dashpots,
+    nwalls: usize,
+    h: Real,
+    on: bool,
+    w: Ptr<Real>,
+    n: usize,
+    inv_i: Rd<Real>,
+    inertia: Rd<Real>,
+    tq: Rd<Real>,
+}
+
+impl<const L: bool> SpinJob<L> {
+    pub(crate) fn new(w: &mut World) -> Self {
+        let n = w.state.len();
+        debug_assert!(w.state.inv_i.len() == n && w.state.inertia.len() == n && w.tq.len() == n);
+        SpinJob {
+            d: Dashpots::of(&mut w.roll),
+            nwalls: w.walls.len(),
+            h: 0.5 * w.params.dt,
+            on: w.timing,
+            w: Ptr(w.state.w.as_mut_ptr()),
+            n,
+            inv_i: Rd::new(&w.state.inv_i),
+            inertia: Rd::new(&w.state.inertia),
+            tq: Rd::of(&mut w.tq),
         }
-        let force_rebuild = self.nl.x0.len() != self.state.len();
-        let s = &mut self.state;
-        let n = s.len();
-        let nc = n.div_ceil(GRAIN_CHUNK);
-        let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
-        let (x, y) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()));
-        let (inv_m, inv_i, inertia) = (U(&s.inv_m[..]), &s.inv_i[..], &s.inertia[..]);
-        let (fx, fy, tq) = (U(&self.fx[..]), U(&self.fy[..]), &self.tq[..]);
-        debug_assert!(s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n && s.w.len() == n);
-        let lim = 0.25 * self.nl.skin * self.nl.skin;
-        let have_x0 = self.nl.x0.len() == n;
-        let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
-        let x0y0 = have_x0.then_some((x0, y0));
-        let (rl, nwalls) = (&self.roll, self.walls.len());
-        // the spin job's ledger parts (sweep, kick, sweep) and its sweep seconds
-        let mut spin_out = (Ledger::default(), Ledger::default(), Ledger::default(), 0.0);
-        let spin = Ptr(&mut spin_out as *mut (Ledger, Ledger, Ledger, f64));
-        chunked(n + GRAIN_CHUNK, GRAIN_CHUNK, &mut self.partials, |lo, hi| {
-            let mut part = Partial::default();
-            if lo == 0 {
-                // the spin job (chunk 0, the lead's first claim)
-                let (wp, sp) = (w, spin);
-                // SAFETY: ω is touched by this job only during the phase
-                let w = unsafe { std::slice::from_raw_parts_mut(wp.0, n) };
-                let t0 = crate::dem::timers::Clock::now(on);
-                let l2 = dashpot_sweep::<L>(rl, nwalls, h, w, inv_i, inertia);
-                let t1 = crate::dem::timers::Clock::now(on);
-                // the spin part of `kick_range` (no prescribed grain: nothing booked; its
-                // partials, merged in chunk order, are zero)
-                for a in 0..n {
-                    w[a] += h * inv_i[a] * tq[a];
-                }
-                let t2 = crate::dem::timers::Clock::now(on);
-                let l1 = dashpot_sweep::<L>(rl, nwalls, h, w, inv_i, inertia);
-                let secs = t0.to(t1) + t2.elapsed();
-                // SAFETY: written by this job only, read after the phase
-                unsafe { *sp.0 = (l2, Ledger::default(), l1, secs) };
-                return part;
-            }
-            let (lo, hi) = (lo - GRAIN_CHUNK, hi - GRAIN_CHUNK);
-            let (vx, vy) = (vx, vy);
-            // SAFETY: chunks are disjoint grain ranges of arrays of length n
-            unsafe {
-                let m = hi - lo;
-                let (im, fx, fy) = (&inv_m.0[lo..hi], &fx.0[lo..hi], &fy.0[lo..hi]);
-                let (vxs, vys) = (std::slice::from_raw_parts_mut(vx.0.add(lo), m), std::slice::from_raw_parts_mut(vy.0.add(lo), m));
-                for a in 0..m {
-                    vxs[a] += h * im[a] * fx[a];
-                    vys[a] += h * im[a] * fy[a];
-                }
-                part.moved = drift_range::<false>(lo, dt, (vxs, vys, &mut []), (x, y, Ptr(std::ptr::null_mut())), x0y0, lim);
-            }
-            part
-        });
-        let mut moved = false;
-        for p in &self.partials[1..] {
-            moved |= p.moved;
+    }
+
+    /// # Safety
+    /// Nothing else touches the spins, torques or dashpot lists meanwhile.
+    pub(crate) unsafe fn run(&self) -> SpinOut {
+        let (n, h, on) = (self.n, self.h, self.on);
+        // SAFETY: caller's contract
+        let (w, inv_i, inertia, tq) = unsafe { (std::slice::from_raw_parts_mut(self.w.0, n), self.inv_i.slice(0, n), self.inertia.slice(0, n), self.tq.slice(0, n)) };
+        let t0 = Clock::now(on);
+        let l2 = unsafe { dashpot_sweep::<L>(&self.d, self.nwalls, h, w, inv_i, inertia) };
+        let t1 = Clock::now(on);
+        // the spin part of `kick_range` (no prescribed grain: nothing booked; its
+        // partials, merged in chunk order, are zero)
+        for a in 0..n {
+            w[a] += h * inv_i[a] * tq[a];
         }
-        debug_assert_eq!(self.partials.len(), nc + 1);
-        let (l2, lk, l1, secs) = spin_out;
-        if L {
-            self.ledger += l2;
-            self.ledger += lk;
-            self.ledger += l1;
-        }
-        self.timers.rolling += secs;
-        self.timers.integrate -= secs;
-        moved || force_rebuild
+        let t2 = Clock::now(on);
+        let l1 = unsafe { dashpot_sweep::<L>(&self.d, self.nwalls, h, w, inv_i, inertia) };
+        SpinOut { ledger: [l2, Ledger::default(), l1], sweep_s: t0.to(t1) + t2.elapsed(), kick_s: t1.to(t2) }
+    }
+}
+
+/// A raw view of the dashpot lists ([`RollLists`]) for a sweep.
+#[derive(Clone, Copy)]
+pub(crate) struct Dashpots {
+    items: Rd<RollItem>,
+    count: Rd<u32>,
+    witems: Rd<RollItem>,
+    wcount: Rd<u32>,
+}
+
+impl Dashpots {
+    pub(crate) fn of(rl: &mut RollLists) -> Self {
+        Dashpots { items: Rd::of(&mut rl.items), count: Rd::new(&rl.count), witems: Rd::of(&mut rl.witems), wcount: Rd::new(&rl.wcount) }
     }
 }
 
 /// One sweep of pairwise backward-Euler rolling-dashpot impulses over `h` on the spins
 /// `w` (module doc): the dashpots `rl` listed by the last force evaluation, in sweep order
 /// (pairs by (i, j), then walls by (wall, grain); see `RollLists`). Returns what it books.
-fn dashpot_sweep<const L: bool>(rl: &RollLists, nwalls: usize, h: Real, w: &mut [Real], inv_i: &[Real], inertia: &[Real]) -> Ledger {
+///
+/// # Safety
+/// Nothing writes the lists meanwhile.
+unsafe fn dashpot_sweep<const L: bool>(rl: &Dashpots, nwalls: usize, h: Real, w: &mut [Real], inv_i: &[Real], inertia: &[Real]) -> Ledger {
     let mut led = Ledger::default();
-    for (c, &cnt) in rl.count.iter().enumerate() {
-        for it in &rl.items[c * PAIR_CHUNK..c * PAIR_CHUNK + cnt as usize] {
+    // SAFETY: caller's contract; the counts index the lists as the passes wrote them
+    let (count, items, wcount, witems) = unsafe { (rl.count.slice(0, rl.count.len()), rl.items.slice(0, rl.items.len()), rl.wcount.slice(0, rl.wcount.len()), rl.witems.slice(0, rl.witems.len())) };
+    for (c, &cnt) in count.iter().enumerate() {
+        for it in &items[c * PAIR_CHUNK..c * PAIR_CHUNK + cnt as usize] {
             pair_impulse::<L>(&it.d, h, w, inv_i, inertia, it.i as usize, Some(it.j as usize), &mut led);
         }
     }
@@ -228,9 +228,9 @@ fn dashpot_sweep<const L: bool>(rl: &RollLists, nwalls: usize, h: Real, w: &mut 
     let nw = nwalls.min(MAX_WALLS);
     for wi in 0..nw {
         for c in 0..nc {
-            let cnt = rl.wcount[wi * nc + c] as usize;
+            let cnt = wcount[wi * nc + c] as usize;
             let at = wi * n + c * GRAIN_CHUNK;
-            for it in &rl.witems[at..at + cnt] {
+            for it in &witems[at..at + cnt] {
                 pair_impulse::<L>(&it.d, h, w, inv_i, inertia, it.i as usize, None, &mut led);
             }
         }
@@ -277,7 +277,7 @@ pub(crate) unsafe fn kick_range<'a, const L: bool>(lo: usize, hi: usize, h: Real
 /// # Safety
 /// As [`kick_range`] for `x`, `y`, `th`.
 #[inline(always)]
-unsafe fn drift_range<const THETA: bool>(lo: usize, dt: Real, (vx, vy, w): (&mut [Real], &mut [Real], &mut [Real]), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
+pub(crate) unsafe fn drift_range<const THETA: bool>(lo: usize, dt: Real, (vx, vy, w): (&mut [Real], &mut [Real], &mut [Real]), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
     let n = vx.len();
     let vy = &vy[..n];
     // SAFETY: caller's contract

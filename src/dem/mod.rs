@@ -23,6 +23,7 @@ pub mod error;
 pub mod timers;
 pub mod preflight;
 pub mod world;
+pub(crate) mod passes;
 pub mod integrate;
 pub mod watchdog;
 pub mod prep;

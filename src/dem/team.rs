@@ -9,11 +9,12 @@
 //! pool thread once per `run` call; a helper spins between phases (a few µs of serial
 //! work: the rolling-dashpot sweep) instead of sleeping.
 //!
-//! Each phase publishes a job `f(c)` for chunks `c` in `0..nc`. The lead claims chunks from
-//! the front, helpers from the back (one atomic word holds the phase epoch and both
-//! ends), so each thread keeps about the same contiguous block of grains and pairs from
-//! phase to phase and step to step (its cache), while an idle or slow helper costs
-//! nothing: the lead takes whatever is left. The lead never waits for a helper to
+//! Each phase publishes a job `f(c)` for chunks `c` in `0..nc` — or several, as stages run
+//! one after the other without a barrier between them ([`for_stages`]). The lead claims
+//! chunks from the front, helpers from the back (one atomic word per stage holds the phase
+//! epoch and both ends), so each thread keeps about the same contiguous block of grains
+//! and pairs from phase to phase and step to step (its cache), while an idle or slow
+//! helper costs nothing: the lead takes whatever is left. The lead never waits for a helper to
 //! *start*, only for chunks a helper has already claimed to finish, so a helper that is
 //! never scheduled (busy pool, loaded machine) cannot stall the run. Every chunk writes
 //! its own output slot and the lead reduces them in chunk order: results do not depend on
@@ -35,36 +36,54 @@ pub const TEAM_MIN_GRAINS: usize = 1000;
 
 const BITS: u32 = 20;
 const MASK: u64 = (1 << BITS) - 1;
-/// Most chunks a phase can have (larger phases run on the lead alone).
+const EPOCH: u64 = (1 << 24) - 1;
+/// Most chunks a stage can have (larger phases run on the lead alone).
 const MAX_CHUNKS: usize = MASK as usize;
+/// Most stages a phase can have.
+pub(crate) const MAX_STAGES: usize = 4;
 
 type Job = *const (dyn Fn(usize) + Sync);
 
+/// One stage of a phase: `f(c)` for chunks `c` in `0..n`.
+pub(crate) type Stage<'a> = (usize, &'a (dyn Fn(usize) + Sync));
+
 /// Shared state of one team (see the module doc).
 pub(crate) struct Team {
-    /// epoch (24 bits) | front (20) | back (20): chunks `front..back` are unclaimed.
-    state: AtomicU64,
+    /// The current phase: epoch (24 bits) | number of stages << 24.
+    phase: AtomicU64,
+    /// Per stage: epoch (24 bits) | front (20) | back (20): chunks `front..back` are
+    /// unclaimed. The epoch makes a claim on a stage of an earlier phase fail.
+    stages: [AtomicU64; MAX_STAGES],
     /// Chunks finished by helpers in the current phase.
     done: AtomicUsize,
     /// Set when the lead's run is over: helpers return.
     quit: AtomicBool,
-    /// The current phase's job; read only by a thread that has claimed one of its chunks
-    /// (the lead does not replace it before every claimed chunk is finished).
-    job: UnsafeCell<Option<Job>>,
+    /// The current phase's jobs; a job is read only by a thread that has claimed one of
+    /// its chunks (the lead does not replace it before every claimed chunk is finished).
+    jobs: UnsafeCell<[Option<Job>; MAX_STAGES]>,
     /// Divisor of the chunks left that one claim takes ([`Team::grab`]).
     share: usize,
 }
 
-// SAFETY: `job` is written by the lead only while no chunk of the previous phase is
-// claimed-but-unfinished and before the phase is published (release store of `state`);
-// helpers read it only after claiming a chunk (acquire CAS on `state`).
+// SAFETY: `jobs` is written by the lead only while no chunk of the previous phase is
+// claimed-but-unfinished and before the phase's stages are published (release stores);
+// helpers read a job only after claiming one of its chunks (acquire CAS on its stage).
 unsafe impl Sync for Team {}
 
 #[inline(always)]
 fn unpack(s: u64) -> (u64, usize, usize) { (s >> (2 * BITS), ((s >> BITS) & MASK) as usize, (s & MASK) as usize) }
 
 impl Team {
-    fn new(threads: usize) -> Self { Team { state: AtomicU64::new(0), done: AtomicUsize::new(0), quit: AtomicBool::new(false), job: UnsafeCell::new(None), share: 2 * threads.max(1) } }
+    fn new(threads: usize) -> Self {
+        Team {
+            phase: AtomicU64::new(0),
+            stages: [const { AtomicU64::new(0) }; MAX_STAGES],
+            done: AtomicUsize::new(0),
+            quit: AtomicBool::new(false),
+            jobs: UnsafeCell::new([None; MAX_STAGES]),
+            share: 2 * threads.max(1),
+        }
+    }
 
     /// How many of `left` unclaimed chunks one claim takes: a share of what is left
     /// (guided scheduling), at least one. Every claim is a compare-exchange on the line
@@ -74,54 +93,86 @@ impl Team {
     #[inline(always)]
     fn grab(&self, left: usize) -> usize { (left / self.share).max(1) }
 
-    /// Lead: run `f(c)` for every `c` in `0..nc` on the team; returns when all are done.
-    fn run(&self, nc: usize, f: &(dyn Fn(usize) + Sync)) {
-        if nc > MAX_CHUNKS || nc < 2 || self.quit.load(Relaxed) {
-            (0..nc).for_each(f);
+    /// Lead: run every stage's chunks on the team; returns when all are done. A thread
+    /// goes on to the next stage as soon as the current one has no chunk left to claim,
+    /// without waiting for the other threads' chunks of it: a chunk that needs another
+    /// stage's output waits for it itself (its job checks), so the phase has no barrier
+    /// inside. Without a team (or when the team has quit) the stages run in order on the
+    /// lead, where every such wait is already satisfied.
+    fn run(&self, stages: &[Stage<'_>]) {
+        let total: usize = stages.iter().map(|s| s.0).sum();
+        if stages.len() > MAX_STAGES || stages.iter().any(|s| s.0 > MAX_CHUNKS) || total < 2 || self.quit.load(Relaxed) {
+            for &(n, f) in stages {
+                (0..n).for_each(f);
+            }
             return;
         }
-        let (epoch, _, _) = unpack(self.state.load(Relaxed));
+        let e = ((self.phase.load(Relaxed) & EPOCH) + 1) & EPOCH;
         // SAFETY: the previous phase is finished (every claimed chunk done), and no new
-        // claim can succeed before the store below publishes this phase. The lifetime is
-        // erased: `f` outlives every use, which ends before this function returns.
-        unsafe { *self.job.get() = Some(std::mem::transmute::<&(dyn Fn(usize) + Sync), Job>(f)) };
+        // claim can succeed before the stores below publish this phase. The lifetimes are
+        // erased: every `f` outlives every use, which ends before this function returns.
+        unsafe {
+            let jobs = &mut *self.jobs.get();
+            for (k, &(_, f)) in stages.iter().enumerate() {
+                jobs[k] = Some(std::mem::transmute::<&(dyn Fn(usize) + Sync), Job>(f));
+            }
+        }
         self.done.store(0, Relaxed);
-        let e = (epoch + 1) & ((1 << 24) - 1);
-        self.state.store((e << (2 * BITS)) | (nc as u64), Release);
+        for (k, &(n, _)) in stages.iter().enumerate() {
+            self.stages[k].store((e << (2 * BITS)) | (n as u64), Release);
+        }
+        self.phase.store(e | ((stages.len() as u64) << 24), Release);
         let mut mine = 0;
-        loop {
-            let s = self.state.load(Relaxed);
-            let (_, front, back) = unpack(s);
-            if front >= back { break; }
-            let k = self.grab(back - front);
-            if self.state.compare_exchange_weak(s, s + ((k as u64) << BITS), Acquire, Relaxed).is_ok() {
-                (front..front + k).for_each(f);
-                mine += k;
+        for (k, &(_, f)) in stages.iter().enumerate() {
+            let st = &self.stages[k];
+            loop {
+                let s = st.load(Relaxed);
+                let (_, front, back) = unpack(s);
+                if front >= back { break; }
+                let c = self.grab(back - front);
+                if st.compare_exchange_weak(s, s + ((c as u64) << BITS), Acquire, Relaxed).is_ok() {
+                    (front..front + c).for_each(f);
+                    mine += c;
+                }
             }
         }
         // wait for the chunks helpers claimed
         let mut spins = 0u32;
-        while self.done.load(Acquire) + mine < nc {
+        while self.done.load(Acquire) + mine < total {
             backoff(&mut spins);
         }
     }
 
-    /// Helper: claim chunks from the back until the lead's run is over.
+    /// Helper: claim chunks from the back of each stage in turn, phase after phase, until
+    /// the lead's run is over.
     fn help(&self) {
         let mut spins = 0u32;
+        let mut seen = 0u64;
         loop {
-            let s = self.state.load(Acquire);
-            let (_, front, back) = unpack(s);
-            if front < back {
-                let k = self.grab(back - front);
-                if self.state.compare_exchange_weak(s, s - k as u64, AcqRel, Relaxed).is_ok() {
-                    // SAFETY: chunks of the current phase are claimed, so the job is set and
-                    // outlives this call (the lead waits for `done`).
-                    let f = unsafe { &*(*self.job.get()).unwrap_unchecked() };
-                    // from the back down, as one chunk per claim did
-                    (back - k..back).rev().for_each(f);
-                    self.done.fetch_add(k, Release);
+            let p = self.phase.load(Acquire);
+            let e = p & EPOCH;
+            if e != seen {
+                let ns = ((p >> 24) as usize).min(MAX_STAGES);
+                'stages: for k in 0..ns {
+                    let st = &self.stages[k];
+                    loop {
+                        let s = st.load(Acquire);
+                        let (se, front, back) = unpack(s);
+                        // a newer phase has begun: this one is over
+                        if se != e { break 'stages; }
+                        if front >= back { break; }
+                        let c = self.grab(back - front);
+                        if st.compare_exchange_weak(s, s - c as u64, AcqRel, Relaxed).is_ok() {
+                            // SAFETY: chunks of this stage are claimed, so its job is set
+                            // and outlives this call (the lead waits for `done`).
+                            let f = unsafe { &*(*self.jobs.get())[k].unwrap_unchecked() };
+                            // from the back down, as one chunk per claim did
+                            (back - c..back).rev().for_each(f);
+                            self.done.fetch_add(c, Release);
+                        }
+                    }
                 }
+                seen = e;
                 spins = 0;
                 continue;
             }
@@ -134,7 +185,7 @@ impl Team {
 /// Spin (the next phase is µs away: a yield would hand the core to another process for a
 /// whole time slice), and yield only after a long wait (~10 ms).
 #[inline(always)]
-fn backoff(spins: &mut u32) {
+pub(crate) fn backoff(spins: &mut u32) {
     if *spins < 1 << 22 {
         *spins += 1;
         std::hint::spin_loop();
@@ -193,12 +244,19 @@ pub(crate) fn active() -> bool {
 
 /// `f(c)` for every chunk `c` in `0..nc`: on the current team if there is one, else in
 /// order on this thread.
-pub(crate) fn for_chunks(nc: usize, f: &(dyn Fn(usize) + Sync)) {
+pub(crate) fn for_chunks(nc: usize, f: &(dyn Fn(usize) + Sync)) { for_stages(&[(nc, f)]) }
+
+/// Every stage's chunks, as one phase: on the current team if there is one (see
+/// [`Team::run`]: a chunk that reads another stage's output must wait for it), else
+/// stage after stage in order on this thread.
+pub(crate) fn for_stages(stages: &[Stage<'_>]) {
     let t = CURRENT.with(|c| c.get());
     if t.is_null() {
-        (0..nc).for_each(f);
+        for &(n, f) in stages {
+            (0..n).for_each(f);
+        }
     } else {
         // SAFETY: set by `with_team` on this thread for the duration of the team's scope.
-        unsafe { &*t }.run(nc, f);
+        unsafe { &*t }.run(stages);
     }
 }

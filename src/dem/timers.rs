@@ -33,6 +33,16 @@ impl PhaseTimers {
     pub fn total(&self) -> f64 { self.neighbors + self.contacts + self.gather + self.walls + self.integrate + self.rolling + self.ledger + self.watchdog }
 }
 
+/// A phase timer a phase's wall time is apportioned to (`World::apportion`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Phase {
+    Contacts,
+    Gather,
+    Walls,
+    Integrate,
+    Rolling,
+}
+
 /// A phase clock reading: the time when the world keeps phase timers, else nothing.
 #[derive(Debug, Clone, Copy)]
 pub struct Clock(Option<Instant>);

@@ -2,12 +2,14 @@
 //!
 //! `integrate(first half kick + drift)` → `refresh_neighbors` → `compute_contacts` (pair
 //! pass) → `grain_pass` (per grain chunk: force gather, grain–wall contacts, second half
-//! kick) → `integrate(rolling dashpot)` → `ledger` → `watchdog`. With the implicit
-//! dashpot, the end of one step and the first half of the next (between two steps of one
-//! `run`) are one phase, `step_boundary`: the spin work (sweeps, spin kick) on one thread
-//! beside the translational kick and drift, and θ advances in the grain pass. The phase
-//! timers keep the names contacts / gather / walls / integrate; the grain pass's wall time
-//! is apportioned to them by each part's CPU time per chunk.
+//! kick) → `integrate(rolling dashpot)` → `ledger` → `watchdog`; the chunk kernels are in
+//! [`crate::dem::passes`]. On a thread team with the implicit dashpot, consecutive steps
+//! of one `run` are *joined* ([`World::steps_with`]): a step's force evaluation is one
+//! team phase without barriers inside (`World::staged_forces`) — the spin work left by
+//! the previous step beside the pair filter, then the pair pass, then the grain pass,
+//! which also does the next step's translational kick and drift. The phase timers keep
+//! the names contacts / gather / walls / integrate / rolling; a phase's wall time is
+//! apportioned to them by each part's CPU time per chunk.
 //!
 //! Velocity Verlet (kick–drift–kick); contact forces at x^{n+1} use v^{n+½} (as LAMMPS
 //! `fix nve/sphere`). Physics terms are picked once per [`World::run`] call by matching
@@ -19,7 +21,7 @@
 //! chunk by chunk in chunk order. Nothing depends on the thread count, so results are
 //! bit-identical for any number of threads.
 
-use crate::dem::contact_law::{BATCH, Law, LawCoeffs, PairBatch, PairBatchOut, PairIn, RollDashpot};
+use crate::dem::contact_law::{Law, LawCoeffs, RollDashpot};
 use crate::dem::energy::{Balance, Energies, Ledger};
 use crate::dem::error::DemError;
 use crate::dem::neighbors::NeighborList;
@@ -28,7 +30,10 @@ use crate::dem::preflight::{Preflight, SizeClasses, preflight};
 use crate::dem::state::{ContactState, State};
 use crate::dem::timers::{Clock, PhaseTimers};
 use crate::dem::walls::Wall;
-use crate::dem::integrate::kick_range;
+use crate::dem::integrate::{SpinJob, SpinOut};
+use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
+use crate::dem::timers::Phase;
+use std::sync::atomic::{AtomicU64, Ordering::{Acquire, Release}};
 use crate::math::{Real, Vec2};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -88,6 +93,34 @@ pub(crate) struct Partial {
     pub moved: bool,
     /// Rolling dashpots this chunk listed (pair pass), per wall (wall pass).
     pub n_roll: [u32; MAX_WALLS],
+    /// CPU seconds of the chunk (pair pass in `World::staged_forces`, with timers on).
+    pub secs: f64,
+}
+
+/// Done flags of a phase's chunks: a chunk stores the phase's stamp into its flag when its
+/// output is written (release), and a chunk that reads it waits for the stamp (acquire).
+/// Stamps grow phase by phase, so the flags are never reset.
+#[derive(Debug, Default)]
+pub(crate) struct Flags(pub(crate) Vec<AtomicU64>);
+impl Clone for Flags {
+    /// Fresh flags (a copied world's phases start over: stamps of 0 are never waited for).
+    fn clone(&self) -> Self { Flags::default() }
+}
+impl Flags {
+    pub(crate) fn ensure(&mut self, n: usize) {
+        if self.0.len() < n {
+            self.0.resize_with(n, || AtomicU64::new(0));
+        }
+    }
+}
+
+/// Wait until `flag` holds the stamp `id` (its chunk's output is visible).
+#[inline(always)]
+fn wait_for(flag: &AtomicU64, id: u64) {
+    let mut spins = 0u32;
+    while flag.load(Acquire) != id {
+        crate::dem::team::backoff(&mut spins);
+    }
 }
 
 /// One implicit rolling dashpot for the integrator's sweep: grains `i`, `j` (`j =
@@ -138,16 +171,6 @@ pub(crate) struct GrainChunk {
     pub secs: [f64; 3],
 }
 
-/// A new largest overlap fraction in a chunk: rare (a few times per chunk), so kept out of
-/// the pair loop (the division is not evaluated for every contact).
-#[cold]
-#[inline(never)]
-fn new_max_overlap(part: &mut Partial, overlap: Real, dmin: Real, i: usize, j: usize) {
-    part.max_overlap = overlap / dmin;
-    part.max_i = i as u32;
-    part.max_j = j as u32;
-}
-
 /// Below this many grains a world steps on its calling thread (the team's threshold,
 /// [`crate::dem::team::TEAM_MIN_GRAINS`]; the name the stage drivers refer to).
 pub const PAR_MIN_ITEMS: usize = crate::dem::team::TEAM_MIN_GRAINS;
@@ -168,12 +191,6 @@ pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl
     });
     // SAFETY: every slot 0..nc was written above (for_chunks returns when all are done)
     unsafe { out.set_len(nc) };
-}
-
-thread_local! {
-    /// Lanes of the pair pass's batches, one set per thread (kept between chunks: filling
-    /// 20 kB with zeros per chunk cost 2 % of the step).
-    static PAIR_SCRATCH: std::cell::Cell<Option<Box<(PairBatch, PairBatchOut)>>> = const { std::cell::Cell::new(None) };
 }
 
 /// Contact histories of a settled state (see [`World::saved_histories`]).
@@ -258,6 +275,20 @@ pub struct World {
     pub(crate) partials: Vec<Partial>,
     /// Per-chunk results of the fused grain pass (gather + walls + second half kick).
     pub(crate) gpartials: Vec<GrainChunk>,
+    /// The pair filter's output (pass 1 of the pair pass, [`crate::dem::passes::PairFilter`]): pair chunk `c`'s
+    /// pairs with work, as offsets from the chunk's first pair, at `todo[c * PAIR_CHUNK..]`.
+    pub(crate) todo: Vec<u16>,
+    /// Results of the first stage of `World::staged_forces`: slot `1 + c` pair chunk `c`'s
+    /// count of pairs with work and the filter's seconds (slot 0: the spin job's).
+    pub(crate) filtered: Vec<(u32, f64)>,
+    /// Per grain chunk, the pair chunks `first..last` holding a pair of its grains (made
+    /// with the list): what its gather waits for in `World::staged_forces`.
+    pub(crate) gdeps: Vec<(u32, u32)>,
+    /// Number of `staged_forces` phases so far: the stamp of their done flags.
+    pub(crate) phase_id: u64,
+    /// Done stamps of the first stage's chunks (spin job, filters) and of the pair chunks.
+    pub(crate) fdone: Flags,
+    pub(crate) pdone: Flags,
     pub(crate) forces_valid: bool,
     /// Inactive walls whose contact histories have been released.
     pub(crate) wall_cleared: [bool; MAX_WALLS],
@@ -312,6 +343,12 @@ impl World {
             wlive: Vec::new(),
             partials: Vec::new(),
             gpartials: Vec::new(),
+            todo: Vec::new(),
+            filtered: Vec::new(),
+            gdeps: Vec::new(),
+            phase_id: 0,
+            fdone: Flags::default(),
+            pdone: Flags::default(),
             forces_valid: false,
         };
         w.resize_scratch();
@@ -362,8 +399,10 @@ impl World {
         self.state = s;
         let np = self.nl.len();
         self.pout.resize(np, [0.0; 4]);
-        self.roll.items.resize(np, RollItem::default());
-        self.roll.count.resize(np.div_ceil(PAIR_CHUNK), 0);
+        // (the dashpot lists keep their size until the next pair pass writes them: the
+        // sweeps between a rebuild and that pass read the last evaluation's dashpots)
+        self.todo.resize(np.div_ceil(PAIR_CHUNK) * PAIR_CHUNK, 0);
+        self.gdeps = grain_chunk_deps(&self.nl.istart, &self.nl.jstart, &self.nl.jlist, self.state.len(), GRAIN_CHUNK);
         self.plive.clear();
         self.plive.resize(np, 1);
     }
@@ -489,12 +528,18 @@ impl World {
         res
     }
 
+    /// `n` steps. On a thread team, two steps of this call are *joined* (except where the
+    /// watchdog looks at the state between them): the grain pass of the first does the
+    /// second's translational kick and drift on the grains it has just kicked (in cache,
+    /// on the thread that computed their forces), and the spin work between them — this
+    /// step's second dashpot sweep, the next one's spin kick and first sweep, serial —
+    /// runs at the next step's start on one thread while the others filter its pairs
+    /// (`World::staged_forces`). Every grain's arithmetic and every sum is that of the
+    /// separate passes (`integrate_second_half`, `integrate_first_half`, `compute_contacts`),
+    /// so results are bit-identical to them; on one thread the separate passes are as
+    /// fast.
     fn steps_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
-        // between two steps of this call, the end of one and the start of the next run as
-        // one team phase (`World::step_boundary`), except where the watchdog looks at the
-        // state between them; on one thread the separate passes (one kick loop over
-        // v and ω) are as fast
-        let boundary = n >= 2 && crate::dem::team::active() && self.boundary_ok::<IMP>();
+        let boundary = n >= 2 && crate::dem::team::active() && self.join_ok::<IMP>();
         let wd = self.params.watchdog.every;
         let mut first = None;
         for k in 0..n {
@@ -504,9 +549,10 @@ impl World {
         Ok(())
     }
 
-    /// One step; `first`: its first half was done by the previous step's boundary (with
-    /// whether the list must be rebuilt); `join`: end with [`World::step_boundary`] (the
-    /// next step's first half, returned as its `first`).
+    /// One step; `first`: the previous step joined this one (see [`World::steps_with`]):
+    /// it did the translational first half of this one (with whether the list must be
+    /// rebuilt) and left its spin work to this step's start; `join`: do the same for the
+    /// next step (returned as its `first`).
     fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self, first: Option<bool>, join: bool) -> Result<Option<bool>, DemError> {
         let dt = self.params.dt;
         let on = self.timing;
@@ -520,15 +566,25 @@ impl World {
         if moved { self.refresh_neighbors(); }
         let t2 = Clock::now(on);
         self.timers.neighbors += t1.to(t2);
-        // contacts, walls and the second half kick (fused per grain chunk)
-        self.compute_forces::<R, IMP, L, true>(dt);
+        // contacts, walls and the second half kick (fused per grain chunk); on a team, as
+        // one phase with the spin work left by a joined previous step and, joined to the
+        // next step, its translational kick and drift
+        let moved_next = if first.is_some() || join {
+            self.staged_forces::<R, IMP, L>(dt, first.is_some(), join)
+        } else {
+            self.compute_forces::<R, IMP, L, true>(dt);
+            false
+        };
         let t3 = Clock::now(on);
         if join {
-            let next = self.step_boundary::<L>();
+            // the next step's walls (as `integrate_first_half`)
+            for wall in self.walls.iter_mut() {
+                wall.origin += wall.velocity * dt;
+            }
             self.t += dt;
             self.steps += 1;
             self.timers.integrate += t3.elapsed();
-            return Ok(Some(next));
+            return Ok(Some(moved_next || self.nl.x0.len() != self.state.len()));
         }
         self.integrate_second_half::<IMP, L>();
         self.t += dt;
@@ -547,7 +603,9 @@ impl World {
 
     /// Contact and wall forces at the current positions with the current velocities;
     /// histories advance by `dt` (0 for the priming evaluation). With `KICK`, the second
-    /// half kick follows in the same per-chunk pass (see [`World::grain_pass`]).
+    /// half kick follows in the same per-chunk pass (see [`World::grain_pass`]), and with
+    /// `next` the translational first half of the next step too; returns whether that
+    /// moved a grain past the skin. `filtered`: as in [`World::compute_contacts`].
     fn compute_forces<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) {
         let on = self.timing;
         let t0 = Clock::now(on);
@@ -565,6 +623,124 @@ impl World {
         self.timers.ledger += t2.elapsed();
     }
 
+    /// A step's force evaluation (histories advance by `dt`, second half kick included) as
+    /// one phase of the thread team, without a barrier inside, in three stages whose
+    /// chunks wait for what they read (see [`crate::dem::team::for_stages`]):
+    /// 1. the spin job (with `spin`: the spin work left by the previous, joined step — its
+    ///    second dashpot sweep, this step's spin kick and first sweep, serial, in order),
+    ///    beside the pair filter ([`crate::dem::passes::PairFilter`]: positions only) of every pair chunk;
+    /// 2. the pair pass ([`PairPass`]) of each chunk, once the spins and its filter are done;
+    /// 3. the grain pass ([`GrainPass`], with `next` the next step's translational kick and
+    ///    drift) of each grain chunk, once the spins and every pair chunk holding one of
+    ///    its grains are done (`World::gdeps`) — so no chunk moves a grain that a pair
+    ///    chunk still reads.
+    ///
+    /// Each chunk writes its own slots and the partials are merged after the phase in
+    /// chunk order, in the order of the separate passes (`integrate_second_half`,
+    /// `integrate_first_half`, `compute_forces`): results are bit-identical to them.
+    /// Returns whether the next step's drift moved a grain past the skin.
+    fn staged_forces<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real, spin: bool, next: bool) -> bool {
+        let on = self.timing;
+        let clock = Clock::now(on);
+        (self.paths.rolling_forces, self.paths.ledger) = (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
+        self.paths.rolling_dashpot += 2 * spin as u64;
+        let mut total = Partial::default();
+        self.release_inactive_walls::<R, IMP, L>(&mut total);
+        let (n, np) = (self.state.len(), self.nl.len());
+        let (npc, ngc) = (np.div_ceil(PAIR_CHUNK), n.div_ceil(GRAIN_CHUNK));
+        self.phase_id += 1;
+        let id = self.phase_id;
+        self.fdone.ensure(1 + npc);
+        self.pdone.ensure(npc);
+        debug_assert_eq!(self.gdeps.len(), ngc);
+        // the pair pass first: it may grow the dashpot list the spin job reads
+        let pairs = PairPass::<R, IMP, L>::new(self, dt);
+        let spin_job = spin.then(|| SpinJob::<L>::new(self));
+        let grains = GrainPass::<R, IMP, L, true>::new(self, dt, next);
+        self.filtered.clear();
+        self.filtered.reserve(1 + npc);
+        self.partials.clear();
+        self.partials.reserve(npc);
+        self.gpartials.clear();
+        self.gpartials.reserve(ngc);
+        let (fout, pout, gout) = (Ptr(self.filtered.as_mut_ptr()), Ptr(self.partials.as_mut_ptr()), Ptr(self.gpartials.as_mut_ptr()));
+        let (fdone, pdone, gdeps) = (&self.fdone.0[..], &self.pdone.0[..], &self.gdeps[..]);
+        let mut spin_out = SpinOut::default();
+        let sp = Ptr(&mut spin_out as *mut SpinOut);
+        let s0 = |c: usize| {
+            let t0 = Clock::now(on);
+            // SAFETY: every chunk writes its own slot once; the spin job is chunk 0 only
+            unsafe {
+                if c == 0 {
+                    if let Some(j) = &spin_job {
+                        sp.write(0, j.run());
+                    }
+                    fout.write(0, (0, 0.0));
+                } else {
+                    let lo = (c - 1) * PAIR_CHUNK;
+                    let k = pairs.filter.run(lo, (lo + PAIR_CHUNK).min(np));
+                    fout.write(c, (k as u32, t0.elapsed()));
+                }
+            }
+            fdone[c].store(id, Release);
+        };
+        let s1 = |c: usize| {
+            wait_for(&fdone[0], id);
+            wait_for(&fdone[1 + c], id);
+            let t0 = Clock::now(on);
+            let lo = c * PAIR_CHUNK;
+            // SAFETY: its filter is done (acquire above); one chunk per call
+            unsafe {
+                let mut p = pairs.chunk(lo, (lo + PAIR_CHUNK).min(np), Some(fout.get(1 + c).0 as usize));
+                p.secs = t0.elapsed();
+                pout.write(c, p);
+            }
+            pdone[c].store(id, Release);
+        };
+        let s2 = |c: usize| {
+            wait_for(&fdone[0], id);
+            let (a, b) = gdeps[c];
+            for q in a as usize..b as usize {
+                wait_for(&pdone[q], id);
+            }
+            let lo = c * GRAIN_CHUNK;
+            // SAFETY: every pair of its grains is evaluated (acquire above); one chunk per call
+            unsafe { gout.write(c, grains.chunk(lo, (lo + GRAIN_CHUNK).min(n))) };
+        };
+        crate::dem::team::for_stages(&[(1 + npc, &s0), (npc, &s1), (ngc, &s2)]);
+        // SAFETY: every slot was written above (for_stages returns when all are done)
+        unsafe {
+            self.filtered.set_len(1 + npc);
+            self.partials.set_len(npc);
+            self.gpartials.set_len(ngc);
+        }
+        let wall_s = clock.elapsed();
+        // the sums, in the order of the separate passes
+        if L && spin {
+            self.ledger += spin_out.ledger[0];
+            self.ledger += spin_out.ledger[1];
+            self.ledger += spin_out.ledger[2];
+        }
+        let p = self.pair_partials();
+        let (q, k, cpu) = self.grain_partials(&mut total);
+        self.ledger_phase::<L>(&p, &q);
+        if L {
+            self.ledger += k.ledger;
+        }
+        if on {
+            let filter_s: f64 = self.filtered[1..].iter().map(|f| f.1).sum();
+            let pair_s: f64 = self.partials.iter().map(|p| p.secs).sum();
+            self.apportion(wall_s, &[
+                (Phase::Rolling, spin_out.sweep_s),
+                (Phase::Integrate, spin_out.kick_s + cpu[2]),
+                (Phase::Contacts, filter_s + pair_s),
+                (Phase::Gather, cpu[0]),
+                (Phase::Walls, cpu[1]),
+            ]);
+        }
+        k.moved
+    }
+
     fn ledger_phase<const L: bool>(&mut self, p: &Partial, q: &Partial) {
         let (fp, fq) = (p.max_overlap, q.max_overlap);
         self.info.max_overlap_fraction = fp.max(fq);
@@ -576,127 +752,19 @@ impl World {
         }
     }
 
-    /// Pair forces in parallel, then a per-grain gather in fixed order.
+    /// Pair forces in parallel (each pair's to its own slot; [`PairPass`]), then a
+    /// per-grain gather in fixed order.
     fn compute_contacts<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real) -> Partial {
-        let coeffs = LawCoeffs::new(&self.params.grain, &self.params.rolling);
-        let s = &self.state;
-        let nl = &mut self.nl;
-        let np = nl.pi.len();
-        let lx = self.periodic_x.unwrap_or(0.0);
-        let (pi, pj, shift, cn, rr) = (U(&nl.pi[..]), U(&nl.pj[..]), U(&nl.shift[..]), U(&nl.cn[..]), U(&nl.r_roll[..]));
-        let n_grains = s.len();
-        debug_assert!(nl.pj.iter().all(|&j| (j as usize) < n_grains));
-        let hist = Ptr(nl.hist.as_mut_ptr());
-        let (pout, ritems) = (Ptr(self.pout.as_mut_ptr()), Ptr(self.roll.items.as_mut_ptr()));
-        debug_assert_eq!(self.plive.len(), np);
-        let live = Ptr(self.plive.as_mut_ptr());
-        let (x, y, vx, vy, w, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.vx[..]), U(&s.vy[..]), U(&s.w[..]), U(&s.r[..]));
-        chunked(np, PAIR_CHUNK, &mut self.partials, move |lo, hi| {
-            let mut part = Partial::default();
-            // Pass 1, branch-free: the pairs with work to do (touching, or separated with a
-            // history still to drop), in pair order. A separated pair found separated before
-            // has nothing left to drop and is skipped: whether a pair touches follows no
-            // pattern along the list, and as a branch it was mispredicted pair after pair.
-            let mut todo = [0u16; PAIR_CHUNK];
-            let mut n_todo = 0usize;
-            for k in lo..hi {
-                let (i, j) = (pi[k] as usize, pj[k] as usize);
-                let dx = x[i] - (x[j] + shift[k] * lx);
-                let dy = y[i] - y[j];
-                let rsq = dx * dx + dy * dy;
-                let radsum = r[i] + r[j];
-                let touching = !(rsq >= radsum * radsum);
-                let work = touching | unsafe { live.get(k) != 0 };
-                todo[n_todo] = (k - lo) as u16;
-                n_todo += usize::from(work);
-            }
-            // Pass 2: those pairs in order, with the same arithmetic as a single pass, in
-            // batches: (a) gather each pair's inputs into lanes, (b) evaluate the law on
-            // all lanes at once (`Law::eval_pairs`, SIMD), (c) store the results and book
-            // the sums pair by pair. The ledger sums run in registers (same order of
-            // additions as into `part`).
-            let (mut led_n, mut led_t, mut led_r) = (0.0, 0.0, 0.0);
-            let mut n_roll = 0usize;
-            let mut scratch = PAIR_SCRATCH.take().unwrap_or_else(|| Box::new((PairBatch::default(), PairBatchOut::default())));
-            let (b, bo) = &mut *scratch;
-            for batch in todo[..n_todo].chunks(BATCH) {
-                let nb = batch.len();
-                // (a) gather
-                for (l, &o) in batch.iter().enumerate() {
-                    let k = lo + o as usize;
-                    let (i, j) = (pi[k] as usize, pj[k] as usize);
-                    let dx = x[i] - (x[j] + shift[k] * lx);
-                    let dy = y[i] - y[j];
-                    b.dx[l] = dx;
-                    b.dy[l] = dy;
-                    b.rsq[l] = dx * dx + dy * dy;
-                    b.radsum[l] = r[i] + r[j];
-                    b.dvx[l] = vx[i] - vx[j];
-                    b.dvy[l] = vy[i] - vy[j];
-                    b.w_i[l] = w[i];
-                    b.w_j[l] = w[j];
-                    b.r_i[l] = r[i];
-                    b.r_j[l] = r[j];
-                    b.r_roll[l] = rr[k];
-                    b.cn[l] = cn[k];
-                    let h = unsafe { hist.get(k) };
-                    b.h[0][l] = h.tangential;
-                    b.h[1][l] = h.rolling;
-                    b.h[2][l] = h.ft;
-                    b.h[3][l] = h.mr;
-                }
-                // (b) the law on every lane (separated lanes give unused numbers)
-                Law::<R, IMP, L>::eval_pairs(&coeffs, b, bo, nb, dt);
-                // (c) store, in pair order
-                for (l, &o) in batch.iter().enumerate() {
-                    let k = lo + o as usize;
-                    let (i, j) = (pi[k] as usize, pj[k] as usize);
-                    let radsum = b.radsum[l];
-                    unsafe {
-                        // separated → drop history (once)
-                        if b.rsq[l] >= radsum * radsum {
-                            live.set(k, 0);
-                            let h = hist.get(k);
-                            if h != ContactState::default() {
-                                if L {
-                                    let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
-                                    led_t += et;
-                                    led_r += er;
-                                }
-                                hist.set(k, ContactState::default());
-                            }
-                            pout.set(k, [0.0; 4]);
-                            continue;
-                        }
-                        let overlap = bo.overlap[l];
-                        let dmin = 2.0 * r[i].min(r[j]);
-                        if overlap > part.max_overlap * dmin {
-                            new_max_overlap(&mut part, overlap, dmin, i, j);
-                        }
-                        live.set(k, 1);
-                        hist.set(k, ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] });
-                        pout.set(k, [bo.fx[l], bo.fy[l], bo.t_i[l], bo.t_j[l]]);
-                        if IMP {
-                            // written always, kept (counted) only with a dashpot: no branch
-                            let d = RollDashpot { c: bo.roll[0][l], m_spring: bo.roll[1][l], m_max: bo.roll[2][l] };
-                            ritems.set(lo + n_roll, RollItem { i: i as u32, j: j as u32, d });
-                            n_roll += usize::from(d.c > 0.0);
-                        }
-                        if L {
-                            led_n += bo.work[0][l];
-                            led_t += bo.work[1][l];
-                            led_r += bo.work[2][l];
-                        }
-                    }
-                }
-            }
-            PAIR_SCRATCH.set(Some(scratch));
-            part.ledger.normal_damping += led_n;
-            part.ledger.tangential += led_t;
-            part.ledger.rolling += led_r;
-            part.n_roll[0] = n_roll as u32;
-            part
-        });
+        let pass = PairPass::<R, IMP, L>::new(self, dt);
+        let np = self.nl.len();
+        // SAFETY: one chunk per call, the job made for this list just now
+        chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| unsafe { pass.chunk(lo, hi, None) });
+        self.pair_partials()
+    }
+
+    /// The pair pass's partials merged in chunk order; the dashpot counts per chunk.
+    fn pair_partials(&mut self) -> Partial {
+        self.roll.count.resize(self.partials.len(), 0);
         let mut total = Partial::default();
         for (c, p) in self.partials.iter().enumerate() {
             total.merge(p);
@@ -705,155 +773,25 @@ impl World {
         total
     }
 
-    /// The per-grain pass after the pair pass, chunk by chunk (one fork-join, each chunk's
-    /// grains stay in cache): (1) gather of the pair forces in increasing pair order plus
-    /// gravity, (2) grain–wall contacts with the same law, walls in order, (3) with `KICK`
-    /// the second half kick. Every grain's arithmetic and every partial sum is in the same
-    /// order as when these were three passes (walls within a chunk: wall by wall, grains in
-    /// order), so the results are bit-identical to them. Returns the wall partial (with the
-    /// released inactive walls first) and the kick partial, each merged in chunk order.
+    /// The per-grain pass after the pair pass ([`GrainPass`]), one fork-join: returns the
+    /// wall partial (with the released inactive walls first) and the kick partial, each
+    /// merged in chunk order.
     fn grain_pass<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) -> (Partial, Partial) {
-        let on = self.timing;
-        let clock = Clock::now(on);
+        let clock = Clock::now(self.timing);
         let mut total = Partial::default();
         self.release_inactive_walls::<R, IMP, L>(&mut total);
+        let pass = GrainPass::<R, IMP, L, KICK>::new(self, dt, false);
+        // SAFETY: one chunk per call, after the pair pass, the job made just now
+        chunked(self.state.len(), GRAIN_CHUNK, &mut self.gpartials, |lo, hi| unsafe { pass.chunk(lo, hi) });
+        let (wall, kick, cpu) = self.grain_partials(&mut total);
+        self.apportion(clock.elapsed(), &[(Phase::Gather, cpu[0]), (Phase::Walls, cpu[1]), (Phase::Integrate, cpu[2])]);
+        (wall, kick)
+    }
+
+    /// The grain pass's partials merged in chunk order into `total` (walls) and the kick
+    /// partial; the wall dashpot counts per chunk; the CPU seconds of its three parts.
+    fn grain_partials(&mut self, total: &mut Partial) -> (Partial, Partial, [f64; 3]) {
         let any_wall = self.walls.iter().any(|w| w.active);
-        let coeffs = LawCoeffs::new(&self.params.wall, &self.params.rolling);
-        let s = &mut self.state;
-        let n = s.len();
-        let walls = &self.walls[..];
-        let g = self.params.gravity;
-        let nl = &self.nl;
-        let (istart, jstart, jlist) = (U(&nl.istart[..]), U(&nl.jstart[..]), &nl.jlist[..]);
-        let pout = U(&self.pout[..]);
-        let m = U(&s.m[..]);
-        let (x, y, r) = (U(&s.x[..]), U(&s.y[..]), U(&s.r[..]));
-        let (inv_m, inv_i) = (U(&s.inv_m[..]), U(&s.inv_i[..]));
-        let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
-        let wcn = U(&self.wall_cn[..]);
-        let hist = Ptr(self.wall_hist.as_mut_ptr());
-        let (fx, fy, tq, witems) = (Ptr(self.fx.as_mut_ptr()), Ptr(self.fy.as_mut_ptr()), Ptr(self.tq.as_mut_ptr()), Ptr(self.roll.witems.as_mut_ptr()));
-        let live = Ptr(self.wlive.as_mut_ptr());
-        let h = 0.5 * self.params.dt;
-        let dt_step = self.params.dt;
-        let th = Ptr(s.theta.as_mut_ptr());
-        chunked(n, GRAIN_CHUNK, &mut self.gpartials, move |lo, hi| {
-            let t0 = Clock::now(on);
-            if IMP && KICK {
-                // θ ← θ + Δt ω of the step's first half (ω after the first dashpot sweep;
-                // see `World::integrate_first_half`)
-                // SAFETY: this chunk's grains only
-                let (thp, wp) = (th, w);
-                unsafe {
-                    let (th, w) = (std::slice::from_raw_parts_mut(thp.0.add(lo), hi - lo), std::slice::from_raw_parts(wp.0.add(lo), hi - lo));
-                    for a in 0..hi - lo {
-                        th[a] += dt_step * w[a];
-                    }
-                }
-            }
-            // (1) gather per grain, in increasing pair order
-            for a in lo..hi {
-                let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
-                // pairs where a is i: contiguous, sequential reads
-                for k in istart[a] as usize..istart[a + 1] as usize {
-                    let o = &pout[k];
-                    ax += o[0];
-                    ay += o[1];
-                    at += o[2];
-                }
-                // pairs where a is j
-                for &k in &jlist[jstart[a] as usize..jstart[a + 1] as usize] {
-                    let k = k as usize;
-                    let o = &pout[k];
-                    ax -= o[0];
-                    ay -= o[1];
-                    at += o[3];
-                }
-                unsafe {
-                    fx.set(a, ax);
-                    fy.set(a, ay);
-                    tq.set(a, at);
-                }
-            }
-            let t1 = Clock::now(on);
-            // (2) grain–wall contacts, wall by wall
-            let mut part = Partial::default();
-            if any_wall {
-                for (wi, wall) in walls.iter().enumerate() {
-                    if !wall.active { continue; }
-                    for a in lo..hi {
-                        let hk = wi * n + a;
-                        let p = Vec2::new(x[a], y[a]);
-                        let overlap = r[a] - wall.distance(p);
-                        if overlap <= 0.0 {
-                            unsafe {
-                                if live.get(hk) == 0 { continue; }
-                                live.set(hk, 0);
-                                let h = hist.get(hk);
-                                if h != ContactState::default() {
-                                    if L {
-                                        let (et, er) = Law::<R, IMP, L>::released(&coeffs, &h);
-                                        part.ledger.wall_tangential += et;
-                                        part.ledger.rolling += er;
-                                    }
-                                    hist.set(hk, ContactState::default());
-                                }
-                            }
-                            continue;
-                        }
-                        let frac = overlap / (2.0 * r[a]);
-                        if frac > part.max_overlap {
-                            part.max_overlap = frac;
-                            part.max_i = a as u32;
-                        }
-                        unsafe {
-                            let pin = PairIn {
-                                n: wall.normal,
-                                overlap,
-                                v_rel: Vec2::new(vx.get(a), vy.get(a)) - wall.velocity,
-                                w_i: w.get(a),
-                                w_j: 0.0,
-                                arm_i: r[a],
-                                arm_j: 0.0,
-                                r_roll: r[a],
-                                cn: wcn[a],
-                            };
-                            live.set(hk, 1);
-                            let mut h = hist.get(hk);
-                            let o = Law::<R, IMP, L>::eval(&coeffs, &pin, &mut h, dt);
-                            hist.set(hk, h);
-                            fx.set(a, fx.get(a) + o.f.x);
-                            fy.set(a, fy.get(a) + o.f.y);
-                            tq.set(a, tq.get(a) + o.t_i);
-                            if IMP && o.roll.c > 0.0 {
-                                witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
-                                part.n_roll[wi] += 1;
-                            }
-                            part.wall_force[wi] -= o.f;
-                            if L {
-                                part.ledger.wall_normal += o.work.normal;
-                                part.ledger.wall_tangential += o.work.tangential;
-                                part.ledger.rolling += o.work.rolling;
-                                part.ledger.external_work += o.f.dot(&wall.velocity) * dt;
-                            }
-                        }
-                    }
-                }
-            }
-            let t2 = Clock::now(on);
-            // (3) second half kick with the complete forces
-            let mut kpart = Partial::default();
-            if KICK {
-                // SAFETY: this chunk's grains, written above by this chunk only
-                unsafe {
-                    let f = |p: Ptr<Real>| std::slice::from_raw_parts(p.0.add(lo), hi - lo);
-                    kick_range::<L>(lo, hi, h, (&inv_m.0[lo..hi], &inv_i.0[lo..hi]), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
-                }
-            }
-            let t3 = Clock::now(on);
-            GrainChunk { walls: part, kick: kpart, secs: [t0.to(t1), t1.to(t2), t2.to(t3)] }
-        });
-        let wall_s = clock.elapsed();
         let nc = self.gpartials.len();
         let mut kick = Partial::default();
         let mut cpu = [0.0; 3];
@@ -872,11 +810,24 @@ impl World {
         if !any_wall {
             self.roll.wcount.fill(0);
         }
-        let sum = (cpu[0] + cpu[1] + cpu[2]).max(1e-12);
-        self.timers.gather += wall_s * cpu[0] / sum;
-        self.timers.walls += wall_s * cpu[1] / sum;
-        self.timers.integrate += wall_s * cpu[2] / sum;
-        (total, kick)
+        (*total, kick, cpu)
+    }
+
+    /// Add a phase's wall time `wall_s` to the phase timers in proportion to the CPU
+    /// seconds of its parts.
+    pub(crate) fn apportion(&mut self, wall_s: f64, parts: &[(Phase, f64)]) {
+        let sum = parts.iter().map(|p| p.1).sum::<f64>().max(1e-12);
+        for &(ph, cpu) in parts {
+            let t = &mut self.timers;
+            let slot = match ph {
+                Phase::Contacts => &mut t.contacts,
+                Phase::Gather => &mut t.gather,
+                Phase::Walls => &mut t.walls,
+                Phase::Integrate => &mut t.integrate,
+                Phase::Rolling => &mut t.rolling,
+            };
+            *slot += wall_s * cpu / sum;
+        }
     }
 
     /// A wall that was switched off (removed gate) gives up its contacts once: stored

@@ -1,0 +1,585 @@
+//! The chunk kernels of one force evaluation, as jobs a phase runs chunk by chunk:
+//!
+//! - [`PairFilter`] — pass 1 of the pair pass: which listed pairs of a chunk have work;
+//! - [`PairPass`] — pass 2: the contact law on those pairs, in batches;
+//! - [`GrainPass`] — per grain chunk: force gather, grain–wall contacts, second half kick
+//!   (and, for a joined step, the next step's translational kick and drift).
+//!
+//! A job holds raw views of the world's arrays ([`Rd`], [`Ptr`]) rather than borrows, so
+//! that one phase can run several of them at once on a thread team — a grain chunk may
+//! drift positions that the pair pass of other chunks still reads, once those chunks are
+//! done (`World::joined_forces` orders them). A job is valid while the world's arrays are
+//! not reallocated: for one phase, made just before it.
+
+use crate::dem::contact_law::{BATCH, Law, LawCoeffs, PairBatch, PairBatchOut, PairIn, RollDashpot};
+use crate::dem::integrate::{drift_range, kick_range};
+use crate::dem::state::ContactState;
+use crate::dem::timers::Clock;
+use crate::dem::walls::Wall;
+use crate::dem::world::{GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, World};
+use crate::math::{Real, Vec2};
+
+/// A read-only view of an array through a raw pointer, indexed without bounds checks (the
+/// indices come from the neighbour list and gather tables, every entry < the number of
+/// grains / pairs they were built for). Checked in debug builds.
+pub(crate) struct Rd<T> {
+    p: *const T,
+    n: usize,
+}
+impl<T> Clone for Rd<T> {
+    fn clone(&self) -> Self { *self }
+}
+impl<T> Copy for Rd<T> {}
+// SAFETY: a view for reading; the jobs that hold one order their reads after the writes
+// of the same elements (see the module doc).
+unsafe impl<T> Send for Rd<T> {}
+unsafe impl<T> Sync for Rd<T> {}
+
+impl<T> Rd<T> {
+    /// Number of elements.
+    pub(crate) fn len(&self) -> usize { self.n }
+    /// A view of an array that nothing writes while the view is used.
+    pub(crate) fn new(v: &[T]) -> Self { Rd { p: v.as_ptr(), n: v.len() } }
+    /// A view of an array that a job of the same phase writes (other elements, or the same
+    /// ones before or after, in an order the phase enforces).
+    pub(crate) fn of(v: &mut Vec<T>) -> Self { Rd { p: v.as_mut_ptr(), n: v.len() } }
+    /// `len` elements from `lo`.
+    ///
+    /// # Safety
+    /// No write to them while the slice is used.
+    #[inline(always)]
+    pub(crate) unsafe fn slice(&self, lo: usize, len: usize) -> &[T] {
+        debug_assert!(lo + len <= self.n);
+        // SAFETY: caller's contract
+        unsafe { std::slice::from_raw_parts(self.p.add(lo), len) }
+    }
+}
+
+impl<T> std::ops::Index<usize> for Rd<T> {
+    type Output = T;
+    #[inline(always)]
+    fn index(&self, i: usize) -> &T {
+        debug_assert!(i < self.n);
+        // SAFETY: see the type's doc
+        unsafe { &*self.p.add(i) }
+    }
+}
+
+thread_local! {
+    /// Lanes of the pair pass's batches, one set per thread (kept between chunks: filling
+    /// 20 kB with zeros per chunk cost 2 % of the step).
+    static PAIR_SCRATCH: std::cell::Cell<Option<Box<(PairBatch, PairBatchOut)>>> = const { std::cell::Cell::new(None) };
+}
+
+/// A new largest overlap fraction in a chunk: rare (a few times per chunk), so kept out of
+/// the pair loop (the division is not evaluated for every contact).
+#[cold]
+#[inline(never)]
+fn new_max_overlap(part: &mut Partial, overlap: Real, dmin: Real, i: usize, j: usize) {
+    part.max_overlap = overlap / dmin;
+    part.max_i = i as u32;
+    part.max_j = j as u32;
+}
+
+/// Pass 1 of the pair pass: which listed pairs of a chunk have work (touching, or
+/// separated with a history still to drop), in pair order. Branch-free: a separated pair
+/// found separated before has nothing left to drop and is skipped, and whether a pair
+/// touches follows no pattern along the list — as a branch it was mispredicted pair after
+/// pair. Reads positions and radii only, so on a thread team it runs beside the spin work
+/// of a joined step's start (`World::joined_forces`).
+#[derive(Clone, Copy)]
+pub(crate) struct PairFilter {
+    pi: Rd<u32>,
+    pj: Rd<u32>,
+    shift: Rd<Real>,
+    x: Rd<Real>,
+    y: Rd<Real>,
+    r: Rd<Real>,
+    lx: Real,
+    live: Ptr<u8>,
+    todo: Ptr<u16>,
+}
+
+impl PairFilter {
+    pub(crate) fn new(w: &mut World) -> Self {
+        let nl = &w.nl;
+        debug_assert!(w.plive.len() == nl.len() && w.todo.len() >= nl.len());
+        PairFilter {
+            pi: Rd::new(&nl.pi),
+            pj: Rd::new(&nl.pj),
+            shift: Rd::new(&nl.shift),
+            x: Rd::of(&mut w.state.x),
+            y: Rd::of(&mut w.state.y),
+            r: Rd::new(&w.state.r),
+            lx: w.periodic_x.unwrap_or(0.0),
+            live: Ptr(w.plive.as_mut_ptr()),
+            todo: Ptr(w.todo.as_mut_ptr()),
+        }
+    }
+
+    /// Writes the offsets from `lo` of the pairs `lo..hi` with work to `todo[lo..]`;
+    /// returns how many.
+    ///
+    /// # Safety
+    /// `lo..hi` is one pair chunk of the list the filter was made for, whose `todo` and
+    /// `live` entries no other thread touches meanwhile, nor the positions of its grains.
+    #[inline(always)]
+    pub(crate) unsafe fn run(&self, lo: usize, hi: usize) -> usize {
+        // SAFETY: caller's contract
+        unsafe { self.run_to(lo, hi, self.todo.0.add(lo)) }
+    }
+
+    /// As [`PairFilter::run`], the offsets to `dst[..hi - lo]`.
+    ///
+    /// # Safety
+    /// As [`PairFilter::run`]; `dst` holds `hi - lo` entries.
+    #[inline(always)]
+    pub(crate) unsafe fn run_to(&self, lo: usize, hi: usize, dst: *mut u16) -> usize {
+        let (pi, pj, shift, x, y, r, lx) = (self.pi, self.pj, self.shift, self.x, self.y, self.r, self.lx);
+        let mut n_todo = 0usize;
+        for k in lo..hi {
+            let (i, j) = (pi[k] as usize, pj[k] as usize);
+            let dx = x[i] - (x[j] + shift[k] * lx);
+            let dy = y[i] - y[j];
+            let rsq = dx * dx + dy * dy;
+            let radsum = r[i] + r[j];
+            let touching = !(rsq >= radsum * radsum);
+            // SAFETY: caller's contract
+            unsafe {
+                let work = touching | (self.live.get(k) != 0);
+                dst.add(n_todo).write((k - lo) as u16);
+                n_todo += usize::from(work);
+            }
+        }
+        n_todo
+    }
+}
+
+/// Pass 2 of the pair pass: the contact law on the pairs the filter kept, each pair's
+/// force to its own slot (`pout`), its history advanced, its dashpot listed.
+#[derive(Clone, Copy)]
+pub(crate) struct PairPass<const R: bool, const IMP: bool, const L: bool> {
+    coeffs: LawCoeffs,
+    dt: Real,
+    lx: Real,
+    pi: Rd<u32>,
+    pj: Rd<u32>,
+    shift: Rd<Real>,
+    cn: Rd<Real>,
+    rr: Rd<Real>,
+    x: Rd<Real>,
+    y: Rd<Real>,
+    vx: Rd<Real>,
+    vy: Rd<Real>,
+    w: Rd<Real>,
+    r: Rd<Real>,
+    hist: Ptr<ContactState>,
+    pout: Ptr<[Real; 4]>,
+    ritems: Ptr<RollItem>,
+    live: Ptr<u8>,
+    /// The filter of this list; its `todo` holds the pairs to evaluate.
+    pub(crate) filter: PairFilter,
+}
+
+impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
+    /// The pass over `w`'s list with histories advancing by `dt`. The dashpot list grows
+    /// to the list's size here (never shrinks: the sweeps of a joined step read the last
+    /// evaluation's dashpots in the same phase, `World::joined_forces`).
+    pub(crate) fn new(w: &mut World, dt: Real) -> Self {
+        let np = w.nl.len();
+        if w.roll.items.len() < np {
+            w.roll.items.resize(np, RollItem::default());
+        }
+        debug_assert_eq!(w.plive.len(), np);
+        debug_assert!(w.nl.pj.iter().all(|&j| (j as usize) < w.state.len()));
+        let filter = PairFilter::new(w);
+        let (nl, s) = (&mut w.nl, &mut w.state);
+        PairPass {
+            coeffs: LawCoeffs::new(&w.params.grain, &w.params.rolling),
+            dt,
+            lx: w.periodic_x.unwrap_or(0.0),
+            pi: Rd::new(&nl.pi),
+            pj: Rd::new(&nl.pj),
+            shift: Rd::new(&nl.shift),
+            cn: Rd::new(&nl.cn),
+            rr: Rd::new(&nl.r_roll),
+            x: Rd::of(&mut s.x),
+            y: Rd::of(&mut s.y),
+            vx: Rd::of(&mut s.vx),
+            vy: Rd::of(&mut s.vy),
+            w: Rd::of(&mut s.w),
+            r: Rd::new(&s.r),
+            hist: Ptr(nl.hist.as_mut_ptr()),
+            pout: Ptr(w.pout.as_mut_ptr()),
+            ritems: Ptr(w.roll.items.as_mut_ptr()),
+            live: filter.live,
+            filter,
+        }
+    }
+
+    /// The pairs `lo..hi` (one chunk): the filter first, unless it has run and found
+    /// `filtered` pairs with work. Returns the chunk's partial (`n_roll[0]`: dashpots it
+    /// listed at `ritems[lo..]`).
+    ///
+    /// # Safety
+    /// `lo..hi` is one pair chunk, its slots touched by no other thread meanwhile; nothing
+    /// writes the positions, velocities or spins of its grains meanwhile.
+    pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
+        let mut part = Partial::default();
+        let (pi, pj, shift, cn, rr, lx) = (self.pi, self.pj, self.shift, self.cn, self.rr, self.lx);
+        let (x, y, vx, vy, w, r) = (self.x, self.y, self.vx, self.vy, self.w, self.r);
+        let (hist, pout, ritems, live, coeffs, dt) = (self.hist, self.pout, self.ritems, self.live, &self.coeffs, self.dt);
+        // Pass 1 (`PairFilter`): the pairs with work to do, in pair order.
+        // SAFETY: caller's contract; the offsets are the filter's, in bounds
+        let mut local = [0u16; PAIR_CHUNK];
+        let todo = match filtered {
+            Some(k) => unsafe { std::slice::from_raw_parts(self.filter.todo.0.add(lo), k) },
+            None => {
+                let k = unsafe { self.filter.run_to(lo, hi, local.as_mut_ptr()) };
+                &local[..k]
+            }
+        };
+        // Pass 2: those pairs in order, with the same arithmetic as a single pass, in
+        // batches: (a) gather each pair's inputs into lanes, (b) evaluate the law on
+        // all lanes at once (`Law::eval_pairs`, SIMD), (c) store the results and book
+        // the sums pair by pair. The ledger sums run in registers (same order of
+        // additions as into `part`).
+        let (mut led_n, mut led_t, mut led_r) = (0.0, 0.0, 0.0);
+        let mut n_roll = 0usize;
+        let mut scratch = PAIR_SCRATCH.take().unwrap_or_else(|| Box::new((PairBatch::default(), PairBatchOut::default())));
+        let (b, bo) = &mut *scratch;
+        for batch in todo.chunks(BATCH) {
+            let nb = batch.len();
+            // (a) gather
+            for (l, &o) in batch.iter().enumerate() {
+                let k = lo + o as usize;
+                let (i, j) = (pi[k] as usize, pj[k] as usize);
+                let dx = x[i] - (x[j] + shift[k] * lx);
+                let dy = y[i] - y[j];
+                b.dx[l] = dx;
+                b.dy[l] = dy;
+                b.rsq[l] = dx * dx + dy * dy;
+                b.radsum[l] = r[i] + r[j];
+                b.dvx[l] = vx[i] - vx[j];
+                b.dvy[l] = vy[i] - vy[j];
+                b.w_i[l] = w[i];
+                b.w_j[l] = w[j];
+                b.r_i[l] = r[i];
+                b.r_j[l] = r[j];
+                b.r_roll[l] = rr[k];
+                b.cn[l] = cn[k];
+                let h = unsafe { hist.get(k) };
+                b.h[0][l] = h.tangential;
+                b.h[1][l] = h.rolling;
+                b.h[2][l] = h.ft;
+                b.h[3][l] = h.mr;
+            }
+            // (b) the law on every lane (separated lanes give unused numbers)
+            Law::<R, IMP, L>::eval_pairs(coeffs, b, bo, nb, dt);
+            // (c) store, in pair order
+            for (l, &o) in batch.iter().enumerate() {
+                let k = lo + o as usize;
+                let (i, j) = (pi[k] as usize, pj[k] as usize);
+                let radsum = b.radsum[l];
+                unsafe {
+                    // separated → drop history (once)
+                    if b.rsq[l] >= radsum * radsum {
+                        live.set(k, 0);
+                        let h = hist.get(k);
+                        if h != ContactState::default() {
+                            if L {
+                                let (et, er) = Law::<R, IMP, L>::released(coeffs, &h);
+                                led_t += et;
+                                led_r += er;
+                            }
+                            hist.set(k, ContactState::default());
+                        }
+                        pout.set(k, [0.0; 4]);
+                        continue;
+                    }
+                    let overlap = bo.overlap[l];
+                    let dmin = 2.0 * r[i].min(r[j]);
+                    if overlap > part.max_overlap * dmin {
+                        new_max_overlap(&mut part, overlap, dmin, i, j);
+                    }
+                    live.set(k, 1);
+                    hist.set(k, ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] });
+                    pout.set(k, [bo.fx[l], bo.fy[l], bo.t_i[l], bo.t_j[l]]);
+                    if IMP {
+                        // written always, kept (counted) only with a dashpot: no branch
+                        let d = RollDashpot { c: bo.roll[0][l], m_spring: bo.roll[1][l], m_max: bo.roll[2][l] };
+                        ritems.set(lo + n_roll, RollItem { i: i as u32, j: j as u32, d });
+                        n_roll += usize::from(d.c > 0.0);
+                    }
+                    if L {
+                        led_n += bo.work[0][l];
+                        led_t += bo.work[1][l];
+                        led_r += bo.work[2][l];
+                    }
+                }
+            }
+        }
+        PAIR_SCRATCH.set(Some(scratch));
+        part.ledger.normal_damping += led_n;
+        part.ledger.tangential += led_t;
+        part.ledger.rolling += led_r;
+        part.n_roll[0] = n_roll as u32;
+        part
+    }
+}
+
+/// The per-grain pass after the pair pass, one grain chunk at a time (each chunk's grains
+/// stay in cache): (1) gather of the pair forces in increasing pair order plus gravity,
+/// (2) grain–wall contacts with the same law, walls in order, (3) with `KICK` the second
+/// half kick, and with `next` the next step's translational half kick and drift (a joined
+/// step). Every grain's arithmetic and every partial sum is in the same order as when
+/// these were separate passes (walls within a chunk: wall by wall, grains in order), so
+/// the results are bit-identical to them.
+#[derive(Clone, Copy)]
+pub(crate) struct GrainPass<const R: bool, const IMP: bool, const L: bool, const KICK: bool> {
+    coeffs: LawCoeffs,
+    /// Step of the histories (0 for a priming evaluation) and of the kicks and drift.
+    dt: Real,
+    step_dt: Real,
+    g: Real,
+    n: usize,
+    next: bool,
+    on: bool,
+    lim: Real,
+    walls: Rd<Wall>,
+    any_wall: bool,
+    istart: Rd<u32>,
+    jstart: Rd<u32>,
+    jlist: Rd<u32>,
+    pout: Rd<[Real; 4]>,
+    m: Rd<Real>,
+    r: Rd<Real>,
+    inv_m: Rd<Real>,
+    inv_i: Rd<Real>,
+    wcn: Rd<Real>,
+    x0: Option<(Rd<Real>, Rd<Real>)>,
+    x: Ptr<Real>,
+    y: Ptr<Real>,
+    th: Ptr<Real>,
+    vx: Ptr<Real>,
+    vy: Ptr<Real>,
+    w: Ptr<Real>,
+    fx: Ptr<Real>,
+    fy: Ptr<Real>,
+    tq: Ptr<Real>,
+    hist: Ptr<ContactState>,
+    live: Ptr<u8>,
+    witems: Ptr<RollItem>,
+}
+
+impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<R, IMP, L, KICK> {
+    /// The pass over `w`'s grains with contact histories advancing by `dt`; `next`: also
+    /// the next step's translational first half (needs `KICK` and no prescribed grain).
+    pub(crate) fn new(w: &mut World, dt: Real, next: bool) -> Self {
+        let n = w.state.len();
+        debug_assert!(!next || (KICK && w.state.inv_m.iter().all(|&v| v != 0.0)));
+        let s = &mut w.state;
+        let nl = &w.nl;
+        GrainPass {
+            coeffs: LawCoeffs::new(&w.params.wall, &w.params.rolling),
+            dt,
+            step_dt: w.params.dt,
+            g: w.params.gravity,
+            n,
+            next,
+            on: w.timing,
+            lim: 0.25 * nl.skin * nl.skin,
+            walls: Rd::new(&w.walls),
+            any_wall: w.walls.iter().any(|w| w.active),
+            istart: Rd::new(&nl.istart),
+            jstart: Rd::new(&nl.jstart),
+            jlist: Rd::new(&nl.jlist),
+            pout: Rd::of(&mut w.pout),
+            m: Rd::new(&s.m),
+            r: Rd::new(&s.r),
+            inv_m: Rd::new(&s.inv_m),
+            inv_i: Rd::new(&s.inv_i),
+            wcn: Rd::new(&w.wall_cn),
+            x0: (nl.x0.len() == n).then(|| (Rd::new(&nl.x0), Rd::new(&nl.y0))),
+            x: Ptr(s.x.as_mut_ptr()),
+            y: Ptr(s.y.as_mut_ptr()),
+            th: Ptr(s.theta.as_mut_ptr()),
+            vx: Ptr(s.vx.as_mut_ptr()),
+            vy: Ptr(s.vy.as_mut_ptr()),
+            w: Ptr(s.w.as_mut_ptr()),
+            fx: Ptr(w.fx.as_mut_ptr()),
+            fy: Ptr(w.fy.as_mut_ptr()),
+            tq: Ptr(w.tq.as_mut_ptr()),
+            hist: Ptr(w.wall_hist.as_mut_ptr()),
+            live: Ptr(w.wlive.as_mut_ptr()),
+            witems: Ptr(w.roll.witems.as_mut_ptr()),
+        }
+    }
+
+    /// Grains `lo..hi` (one chunk).
+    ///
+    /// # Safety
+    /// `lo..hi` is one grain chunk, whose grains no other thread touches meanwhile, and
+    /// every pair of its grains has been evaluated (`pout`).
+    pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize) -> GrainChunk {
+        let (n, dt, step_dt, on) = (self.n, self.dt, self.step_dt, self.on);
+        let h = 0.5 * step_dt;
+        let (istart, jstart, jlist, pout, m, r, g) = (self.istart, self.jstart, self.jlist, self.pout, self.m, self.r, self.g);
+        let (inv_m, inv_i, wcn) = (self.inv_m, self.inv_i, self.wcn);
+        let (xp, yp, th, vx, vy, w) = (self.x, self.y, self.th, self.vx, self.vy, self.w);
+        let (fx, fy, tq, hist, live, witems) = (self.fx, self.fy, self.tq, self.hist, self.live, self.witems);
+        // SAFETY: not written during the phase
+        let walls = unsafe { self.walls.slice(0, self.walls.n) };
+        let coeffs = &self.coeffs;
+        let t0 = Clock::now(on);
+        if IMP && KICK {
+            // θ ← θ + Δt ω of the step's first half (ω after the first dashpot sweep;
+            // see `World::integrate_first_half`)
+            // SAFETY: this chunk's grains only
+            unsafe {
+                let (th, w) = (std::slice::from_raw_parts_mut(th.0.add(lo), hi - lo), std::slice::from_raw_parts(w.0.add(lo), hi - lo));
+                for a in 0..hi - lo {
+                    th[a] += step_dt * w[a];
+                }
+            }
+        }
+        // (1) gather per grain, in increasing pair order
+        for a in lo..hi {
+            let (mut ax, mut ay, mut at) = (0.0, -m[a] * g, 0.0);
+            // pairs where a is i: contiguous, sequential reads
+            for k in istart[a] as usize..istart[a + 1] as usize {
+                let o = &pout[k];
+                ax += o[0];
+                ay += o[1];
+                at += o[2];
+            }
+            // pairs where a is j
+            // SAFETY: the gather table is not written during the phase
+            for &k in unsafe { jlist.slice(jstart[a] as usize, (jstart[a + 1] - jstart[a]) as usize) } {
+                let k = k as usize;
+                let o = &pout[k];
+                ax -= o[0];
+                ay -= o[1];
+                at += o[3];
+            }
+            unsafe {
+                fx.set(a, ax);
+                fy.set(a, ay);
+                tq.set(a, at);
+            }
+        }
+        let t1 = Clock::now(on);
+        // (2) grain–wall contacts, wall by wall
+        let mut part = Partial::default();
+        if self.any_wall {
+            for (wi, wall) in walls.iter().enumerate() {
+                if !wall.active { continue; }
+                for a in lo..hi {
+                    let hk = wi * n + a;
+                    // SAFETY: this chunk's grain
+                    let p = unsafe { Vec2::new(xp.get(a), yp.get(a)) };
+                    let overlap = r[a] - wall.distance(p);
+                    if overlap <= 0.0 {
+                        unsafe {
+                            if live.get(hk) == 0 { continue; }
+                            live.set(hk, 0);
+                            let h = hist.get(hk);
+                            if h != ContactState::default() {
+                                if L {
+                                    let (et, er) = Law::<R, IMP, L>::released(coeffs, &h);
+                                    part.ledger.wall_tangential += et;
+                                    part.ledger.rolling += er;
+                                }
+                                hist.set(hk, ContactState::default());
+                            }
+                        }
+                        continue;
+                    }
+                    let frac = overlap / (2.0 * r[a]);
+                    if frac > part.max_overlap {
+                        part.max_overlap = frac;
+                        part.max_i = a as u32;
+                    }
+                    unsafe {
+                        let pin = PairIn {
+                            n: wall.normal,
+                            overlap,
+                            v_rel: Vec2::new(vx.get(a), vy.get(a)) - wall.velocity,
+                            w_i: w.get(a),
+                            w_j: 0.0,
+                            arm_i: r[a],
+                            arm_j: 0.0,
+                            r_roll: r[a],
+                            cn: wcn[a],
+                        };
+                        live.set(hk, 1);
+                        let mut h = hist.get(hk);
+                        let o = Law::<R, IMP, L>::eval(coeffs, &pin, &mut h, dt);
+                        hist.set(hk, h);
+                        fx.set(a, fx.get(a) + o.f.x);
+                        fy.set(a, fy.get(a) + o.f.y);
+                        tq.set(a, tq.get(a) + o.t_i);
+                        if IMP && o.roll.c > 0.0 {
+                            witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
+                            part.n_roll[wi] += 1;
+                        }
+                        part.wall_force[wi] -= o.f;
+                        if L {
+                            part.ledger.wall_normal += o.work.normal;
+                            part.ledger.wall_tangential += o.work.tangential;
+                            part.ledger.rolling += o.work.rolling;
+                            part.ledger.external_work += o.f.dot(&wall.velocity) * dt;
+                        }
+                    }
+                }
+            }
+        }
+        let t2 = Clock::now(on);
+        // (3) second half kick with the complete forces
+        let mut kpart = Partial::default();
+        if KICK {
+            // SAFETY: this chunk's grains, written above by this chunk only
+            unsafe {
+                let f = |p: Ptr<Real>| std::slice::from_raw_parts(p.0.add(lo), hi - lo);
+                let (im, ii) = (inv_m.slice(lo, hi - lo), inv_i.slice(lo, hi - lo));
+                let (vxs, vys, _) = kick_range::<L>(lo, hi, h, (im, ii), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
+                if self.next {
+                    // the next step's translational half kick (`kick_range`'s arithmetic;
+                    // no prescribed grain, nothing to book) and drift
+                    let (fx, fy) = (f(fx), f(fy));
+                    for a in 0..hi - lo {
+                        vxs[a] += h * im[a] * fx[a];
+                        vys[a] += h * im[a] * fy[a];
+                    }
+                    let x0y0 = self.x0.as_ref().map(|(x0, y0)| (x0.slice(0, n), y0.slice(0, n)));
+                    kpart.moved = drift_range::<false>(lo, step_dt, (vxs, vys, &mut []), (xp, yp, Ptr(std::ptr::null_mut())), x0y0, self.lim);
+                }
+            }
+        }
+        let t3 = Clock::now(on);
+        GrainChunk { walls: part, kick: kpart, secs: [t0.to(t1), t1.to(t2), t2.to(t3)] }
+    }
+}
+
+/// The grain chunk range `[first, last)` of pair chunks holding a pair of each grain chunk
+/// (as i or as j): what its gather must wait for in a joined step. Empty for a chunk
+/// without pairs.
+pub(crate) fn grain_chunk_deps(istart: &[u32], jstart: &[u32], jlist: &[u32], n: usize, grain_chunk: usize) -> Vec<(u32, u32)> {
+    (0..n.div_ceil(grain_chunk))
+        .map(|c| {
+            let (lo, hi) = (c * grain_chunk, ((c + 1) * grain_chunk).min(n));
+            let (mut a, mut b) = (u32::MAX, 0u32);
+            if istart[hi] > istart[lo] {
+                a = istart[lo];
+                b = istart[hi] - 1;
+            }
+            for &k in &jlist[jstart[lo] as usize..jstart[hi] as usize] {
+                a = a.min(k);
+                b = b.max(k);
+            }
+            if a == u32::MAX { (0, 0) } else { (a / PAIR_CHUNK as u32, b / PAIR_CHUNK as u32 + 1) }
+        })
+        .collect()
+}
+
+const _: () = assert!(MAX_WALLS <= 8);
