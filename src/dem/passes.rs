@@ -231,13 +231,16 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         let (hist, pout, ritems, live, coeffs, dt) = (self.hist, self.pout, self.ritems, self.live, &self.coeffs, self.dt);
         // Pass 1 (`PairFilter`): the pairs with work to do, in pair order.
         // SAFETY: caller's contract; the offsets are the filter's, in bounds
-        let mut local = [0u16; PAIR_CHUNK];
+        // unfiltered, the chunk filters into a buffer on the stack (in L1 for the pass; not
+        // zeroed: the filter writes every entry it counts)
+        let mut local = std::mem::MaybeUninit::<[u16; PAIR_CHUNK]>::uninit();
         let todo = match filtered {
             Some(k) => unsafe { std::slice::from_raw_parts(self.filter.todo.0.add(lo), k) },
-            None => {
-                let k = unsafe { self.filter.run_to(lo, hi, local.as_mut_ptr()) };
-                &local[..k]
-            }
+            None => unsafe {
+                let p = local.as_mut_ptr() as *mut u16;
+                let k = self.filter.run_to(lo, hi, p);
+                std::slice::from_raw_parts(p, k)
+            },
         };
         // Pass 2: those pairs in order, with the same arithmetic as a single pass, in
         // batches: (a) gather each pair's inputs into lanes, (b) evaluate the law on
