@@ -33,7 +33,7 @@ use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
 use crate::dem::timers::Clock;
 use crate::dem::passes::Rd;
-use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, RollLists, U, World, chunked};
+use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, RollLists, World, chunked};
 use crate::math::Real;
 
 impl World {
@@ -75,8 +75,8 @@ impl World {
         let n = s.len();
         let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
-        let (inv_m, inv_i) = (U(&s.inv_m[..]), U(&s.inv_i[..]));
-        let (fx, fy, tq) = (U(&self.fx[..]), U(&self.fy[..]), U(&self.tq[..]));
+        let (inv_m, inv_i) = (&s.inv_m[..], &s.inv_i[..]);
+        let (fx, fy, tq) = (&self.fx[..], &self.fy[..], &self.tq[..]);
         debug_assert!(s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n);
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
@@ -86,7 +86,7 @@ impl World {
             let mut part = Partial::default();
             // SAFETY: chunks are disjoint grain ranges of arrays of length n
             unsafe {
-                let (vxn, vyn, wn) = kick_range::<L>(lo, hi, h, (&inv_m.0[lo..hi], &inv_i.0[lo..hi]), (&fx.0[lo..hi], &fy.0[lo..hi], &tq.0[lo..hi]), (vx, vy, w), &mut part);
+                let (vxn, vyn, wn) = kick_range::<L>(lo, hi, h, (&inv_m[lo..hi], &inv_i[lo..hi]), (&fx[lo..hi], &fy[lo..hi], &tq[lo..hi]), (vx, vy, w), &mut part);
                 if DRIFT {
                     part.moved = drift_range::<THETA>(lo, dt, (vxn, vyn, wn), (x, y, th), x0y0, lim);
                 }

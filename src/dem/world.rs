@@ -66,22 +66,6 @@ impl<T: Copy> Ptr<T> {
     pub(crate) unsafe fn set(self, i: usize, v: T) { unsafe { *self.0.add(i) = v } }
 }
 
-/// A slice indexed without bounds checks, for the hot loops whose indices come from the
-/// neighbour list and gather tables (every entry < the number of grains / pairs they were
-/// built for; a state that loses grains gets a new `World`, one that gains grains a
-/// rebuild). Checked in debug builds.
-#[derive(Clone, Copy)]
-pub(crate) struct U<'a, T>(pub(crate) &'a [T]);
-impl<T> std::ops::Index<usize> for U<'_, T> {
-    type Output = T;
-    #[inline(always)]
-    fn index(&self, i: usize) -> &T {
-        debug_assert!(i < self.0.len());
-        // SAFETY: see the type's doc
-        unsafe { self.0.get_unchecked(i) }
-    }
-}
-
 /// Per-chunk partial results, summed in chunk order.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Partial {
@@ -181,9 +165,7 @@ pub const PAR_MIN_ITEMS: usize = crate::dem::team::TEAM_MIN_GRAINS;
 /// sum's order — is the same either way, so results do not depend on the thread count.
 pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl Fn(usize, usize) -> T + Sync + Send) {
     let nc = n.div_ceil(chunk);
-    out.clear();
-    out.reserve(nc);
-    let dst = Ptr(out.as_mut_ptr());
+    let dst = slots(out, nc);
     crate::dem::team::for_chunks(nc, &|c| {
         let v = f(c * chunk, ((c + 1) * chunk).min(n));
         // SAFETY: each chunk index is run exactly once, into reserved capacity
@@ -191,6 +173,14 @@ pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl
     });
     // SAFETY: every slot 0..nc was written above (for_chunks returns when all are done)
     unsafe { out.set_len(nc) };
+}
+
+/// `out` emptied with room for `n` per-chunk results, written through the returned pointer
+/// by the chunks (slot `c` by chunk `c` only); once all are written, `out.set_len(n)`.
+pub(crate) fn slots<T>(out: &mut Vec<T>, n: usize) -> Ptr<T> {
+    out.clear();
+    out.reserve(n);
+    Ptr(out.as_mut_ptr())
 }
 
 /// Contact histories of a settled state (see [`World::saved_histories`]).
@@ -460,7 +450,8 @@ impl World {
     }
 
     fn run_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
-        // The hot loops index the grain arrays with the list's indices unchecked (`U`):
+        // The hot loops index the grain arrays with the list's indices unchecked
+        // (`passes::Rd`):
         // a state edited without `resize_scratch` (or resized without a rebuild) gets its
         // scratch and list brought up to date first. The library's own callers never
         // reach these branches (they resize and rebuild themselves), so no result moves.
@@ -657,13 +648,7 @@ impl World {
         let pairs = PairPass::<R, IMP, L>::new(self, dt);
         let spin_job = spin.then(|| SpinJob::<L>::new(self));
         let grains = GrainPass::<R, IMP, L, true>::new(self, dt, next);
-        self.filtered.clear();
-        self.filtered.reserve(1 + npc);
-        self.partials.clear();
-        self.partials.reserve(npc);
-        self.gpartials.clear();
-        self.gpartials.reserve(ngc);
-        let (fout, pout, gout) = (Ptr(self.filtered.as_mut_ptr()), Ptr(self.partials.as_mut_ptr()), Ptr(self.gpartials.as_mut_ptr()));
+        let (fout, pout, gout) = (slots(&mut self.filtered, 1 + npc), slots(&mut self.partials, npc), slots(&mut self.gpartials, ngc));
         let (fdone, pdone, gdeps) = (&self.fdone.0[..], &self.pdone.0[..], &self.gdeps[..]);
         let mut spin_out = SpinOut::default();
         let sp = Ptr(&mut spin_out as *mut SpinOut);
@@ -722,7 +707,7 @@ impl World {
             self.ledger += spin_out.ledger[2];
         }
         let p = self.pair_partials();
-        let (q, k, cpu) = self.grain_partials(&mut total);
+        let (q, k, cpu) = self.grain_partials(total);
         self.ledger_phase::<L>(&p, &q);
         if L {
             self.ledger += k.ledger;
@@ -783,14 +768,14 @@ impl World {
         let pass = GrainPass::<R, IMP, L, KICK>::new(self, dt, false);
         // SAFETY: one chunk per call, after the pair pass, the job made just now
         chunked(self.state.len(), GRAIN_CHUNK, &mut self.gpartials, |lo, hi| unsafe { pass.chunk(lo, hi) });
-        let (wall, kick, cpu) = self.grain_partials(&mut total);
+        let (wall, kick, cpu) = self.grain_partials(total);
         self.apportion(clock.elapsed(), &[(Phase::Gather, cpu[0]), (Phase::Walls, cpu[1]), (Phase::Integrate, cpu[2])]);
         (wall, kick)
     }
 
     /// The grain pass's partials merged in chunk order into `total` (walls) and the kick
     /// partial; the wall dashpot counts per chunk; the CPU seconds of its three parts.
-    fn grain_partials(&mut self, total: &mut Partial) -> (Partial, Partial, [f64; 3]) {
+    fn grain_partials(&mut self, mut total: Partial) -> (Partial, Partial, [f64; 3]) {
         let any_wall = self.walls.iter().any(|w| w.active);
         let nc = self.gpartials.len();
         let mut kick = Partial::default();
@@ -810,7 +795,7 @@ impl World {
         if !any_wall {
             self.roll.wcount.fill(0);
         }
-        (*total, kick, cpu)
+        (total, kick, cpu)
     }
 
     /// Add a phase's wall time `wall_s` to the phase timers in proportion to the CPU
