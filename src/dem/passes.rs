@@ -16,7 +16,7 @@ use crate::dem::integrate::{drift_range, kick_range};
 use crate::dem::state::ContactState;
 use crate::dem::timers::Clock;
 use crate::dem::walls::Wall;
-use crate::dem::world::{GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, World};
+use crate::dem::world::{GRAIN_CHUNK, GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, World};
 use crate::math::{Real, Vec2};
 
 /// A read-only view of an array through a raw pointer, indexed without bounds checks (the
@@ -351,6 +351,10 @@ pub(crate) struct GrainPass<const R: bool, const IMP: bool, const L: bool, const
     lim: Real,
     walls: Rd<Wall>,
     any_wall: bool,
+    /// The near-wall lists (`NearWalls`): grains and per (wall, chunk) starts.
+    near: Rd<u32>,
+    near_start: Rd<u32>,
+    near_chunks: usize,
     istart: Rd<u32>,
     jstart: Rd<u32>,
     jlist: Rd<u32>,
@@ -381,6 +385,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
     pub(crate) fn new(w: &mut World, dt: Real, next: bool) -> Self {
         let n = w.state.len();
         debug_assert!(!next || (KICK && w.state.inv_m.iter().all(|&v| v != 0.0)));
+        w.ensure_near_walls();
         let s = &mut w.state;
         let nl = &w.nl;
         GrainPass {
@@ -394,6 +399,9 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
             lim: 0.25 * nl.skin * nl.skin,
             walls: Rd::new(&w.walls),
             any_wall: w.walls.iter().any(|w| w.active),
+            near: Rd::new(&w.near.grains),
+            near_start: Rd::new(&w.near.start),
+            near_chunks: w.near.chunks,
             istart: Rd::new(&nl.istart),
             jstart: Rd::new(&nl.jstart),
             jlist: Rd::new(&nl.jlist),
@@ -472,12 +480,20 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
             }
         }
         let t1 = Clock::now(on);
-        // (2) grain–wall contacts, wall by wall
+        // (2) grain–wall contacts, wall by wall, over the grains near each wall
+        // (`NearWalls`: the others have no contact and nothing to drop)
         let mut part = Partial::default();
         if self.any_wall {
+            debug_assert!(lo % GRAIN_CHUNK == 0 && self.near_start.len() == walls.len() * (self.near_chunks + 1));
+            let c = lo / GRAIN_CHUNK;
             for (wi, wall) in walls.iter().enumerate() {
                 if !wall.active { continue; }
-                for a in lo..hi {
+                let at = wi * (self.near_chunks + 1) + c;
+                let (s, e) = (self.near_start[at] as usize, self.near_start[at + 1] as usize);
+                // SAFETY: not written during the phase
+                for &a in unsafe { self.near.slice(s, e - s) } {
+                    let a = a as usize;
+                    debug_assert!((lo..hi).contains(&a));
                     let hk = wi * n + a;
                     // SAFETY: this chunk's grain
                     let p = unsafe { Vec2::new(xp.get(a), yp.get(a)) };

@@ -29,7 +29,7 @@ use crate::dem::params::{DemParams, RollingDamping, normal_damping};
 use crate::dem::preflight::{Preflight, SizeClasses, preflight};
 use crate::dem::state::{ContactState, State};
 use crate::dem::timers::{Clock, PhaseTimers};
-use crate::dem::walls::Wall;
+use crate::dem::walls::{NearWalls, Wall};
 use crate::dem::integrate::{SpinJob, SpinOut};
 use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
 use crate::dem::timers::Phase;
@@ -262,6 +262,8 @@ pub struct World {
     pub(crate) plive: Vec<u8>,
     /// The same per grain–wall slot (`wall * n + grain`).
     pub(crate) wlive: Vec<u8>,
+    /// Per wall, the grains near it (the grain–wall pass visits only those).
+    pub(crate) near: NearWalls,
     pub(crate) partials: Vec<Partial>,
     /// Per-chunk results of the fused grain pass (gather + walls + second half kick).
     pub(crate) gpartials: Vec<GrainChunk>,
@@ -331,6 +333,7 @@ impl World {
             roll: RollLists::default(),
             plive: Vec::new(),
             wlive: Vec::new(),
+            near: NearWalls::default(),
             partials: Vec::new(),
             gpartials: Vec::new(),
             todo: Vec::new(),
@@ -370,6 +373,7 @@ impl World {
         self.wall_hist = wh;
         self.wlive.clear();
         self.wlive.resize(MAX_WALLS * n, 1);
+        self.near.invalidate();
         let (z, kn) = (self.params.wall.damping_ratio(), self.params.wall.kn);
         self.wall_cn = self.state.m.iter().map(|&m| normal_damping(z, m, kn)).collect();
         // the list is rebuilt (positions changed); pair histories are kept by key
@@ -395,6 +399,14 @@ impl World {
         self.gdeps = grain_chunk_deps(&self.nl.istart, &self.nl.jstart, &self.nl.jlist, self.state.len(), GRAIN_CHUNK);
         self.plive.clear();
         self.plive.resize(np, 1);
+        self.near.invalidate();
+    }
+
+    /// Make the near-wall lists again if they no longer hold (see [`NearWalls`]).
+    pub(crate) fn ensure_near_walls(&mut self) {
+        if !self.near.hold(&self.walls, self.state.len()) {
+            self.near.make(&self.walls, (&self.nl.x0, &self.nl.y0), &self.state.r, self.nl.skin, &self.wlive, GRAIN_CHUNK);
+        }
     }
 
     /// Forces must be recomputed before the next kick (after external state edits that
@@ -466,6 +478,12 @@ impl World {
             // a wall was edited between runs (gate removed, wall shifted): the stored forces
             // are stale for the first half kick
             self.forces_valid = false;
+        }
+        if !self.forces_valid && self.nl.needs_rebuild(&self.state) {
+            // grains moved by hand since the last build (`invalidate_forces`): the pair
+            // and near-wall lists assume no grain is more than skin/2 from its build
+            // position
+            self.rebuild();
         }
         if !self.forces_valid {
             self.compute_forces::<R, IMP, L, false>(0.0);
@@ -950,6 +968,7 @@ impl World {
         }
         self.plive.fill(1);
         self.wlive.fill(1);
+        self.near.invalidate();
         self.forces_valid = false;
         restored
     }
