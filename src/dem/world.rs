@@ -42,11 +42,19 @@ use std::time::Instant;
 pub const PAIR_CHUNK: usize = 512;
 /// Grains per parallel work unit.
 pub const GRAIN_CHUNK: usize = 256;
-/// Steps for which [`World::run`] keeps its choice between stepping a world alone and with
-/// a thread team, made by timing [`TEAM_PROBE`] steps each way.
+/// [`World::run`] steps a world with a thread team while the team is clearly faster than
+/// the world alone: it times [`TEAM_PROBE`] steps alone (the reference, again after
+/// [`TEAM_REFRESH`] steps), then the team in blocks of [`TEAM_BLOCK`] steps; a team
+/// slower than 0.9 × the reference rests for TEAM_SEGMENT / 16 steps (doubling with
+/// every further loss, up to TEAM_SEGMENT / 4) and is tried again. Results are the same
+/// either way.
 pub const TEAM_SEGMENT: u64 = 4096;
 /// See [`TEAM_SEGMENT`].
 pub const TEAM_PROBE: u64 = 128;
+/// See [`TEAM_SEGMENT`].
+pub const TEAM_BLOCK: u64 = 1024;
+/// See [`TEAM_SEGMENT`].
+pub const TEAM_REFRESH: u64 = 8 * TEAM_SEGMENT;
 /// Most walls a scene can have.
 pub const MAX_WALLS: usize = 8;
 
@@ -239,11 +247,11 @@ pub struct World {
     pub team_probe: bool,
     /// Keep the phase timers (`timers`; default false: no clock calls in the steps).
     pub timing: bool,
-    /// The probe's choice (team or alone) and the step until which it holds.
-    pub(crate) team_on: bool,
+    /// Seconds per step alone, and the step when timed (see [`TEAM_SEGMENT`]).
+    pub(crate) solo_ref: Option<(f64, u64)>,
+    /// A team that lost rests until this step.
     pub(crate) team_until: u64,
-    /// Probes lost by the team in a row (a lost probe is retried after TEAM_SEGMENT / 16
-    /// steps, doubling with every further loss up to TEAM_SEGMENT / 4).
+    /// Tries lost by the team in a row.
     pub(crate) team_lost: u32,
     pub(crate) nl: NeighborList,
     pub(crate) wall_hist: Vec<ContactState>,
@@ -318,7 +326,7 @@ impl World {
             team_min_grains: crate::dem::team::TEAM_MIN_GRAINS,
             team_probe: true,
             timing: false,
-            team_on: false,
+            solo_ref: None,
             team_until: 0,
             team_lost: 0,
             nl: NeighborList::default(),
@@ -493,48 +501,70 @@ impl World {
         let mut res = Ok(());
         let mut left = n;
         while left > 0 && res.is_ok() {
-            if team && self.team_probe && self.steps >= self.team_until && left >= 2 * TEAM_PROBE {
-                // Time TEAM_PROBE steps alone, then as many with the thread team, and keep
-                // the faster for the next TEAM_SEGMENT steps (the machine's load changes;
-                // results are the same either way).
+            if !(team && self.team_probe) {
+                res = crate::dem::team::with_team(team, || self.steps_with::<R, IMP, L>(left));
+                break;
+            }
+            let fresh = self.solo_ref.is_some_and(|(_, at)| self.steps < at + TEAM_REFRESH);
+            if !fresh && left >= 2 * TEAM_PROBE {
+                // the reference: TEAM_PROBE steps alone, then try the team
                 let t0 = Instant::now();
                 res = self.steps_with::<R, IMP, L>(TEAM_PROBE);
-                let solo = t0.elapsed();
-                if res.is_err() { break; }
-                let k = (left - 2 * TEAM_PROBE).min(TEAM_SEGMENT);
+                self.solo_ref = Some((t0.elapsed().as_secs_f64() / TEAM_PROBE as f64, self.steps));
+                left -= TEAM_PROBE;
+            } else if self.solo_ref.is_some() && self.steps >= self.team_until {
+                // with the team, in timed blocks, while it stays clearly faster than alone
                 let mut ran = 0;
-                res = crate::dem::team::with_team(true, || {
-                    // the first team steps wait for the helpers to wake and fill their
-                    // caches: time the team after TEAM_PROBE / 4 of them
-                    self.steps_with::<R, IMP, L>(TEAM_PROBE / 4)?;
-                    let t1 = Instant::now();
-                    self.steps_with::<R, IMP, L>(TEAM_PROBE - TEAM_PROBE / 4)?;
-                    let team = t1.elapsed().as_secs_f64() / (TEAM_PROBE - TEAM_PROBE / 4) as f64;
-                    // the team must be clearly faster: a short probe is noisy
-                    self.team_on = team < 0.9 * solo.as_secs_f64() / TEAM_PROBE as f64;
-                    // a lost probe is retried sooner: after 256 steps at first (a moment
-                    // when the other core was busy, or noise, should not cost a whole
-                    // segment), backing off to 1024 while the team keeps losing (a loaded
-                    // machine, where every team probe is slow)
-                    self.team_lost = if self.team_on { 0 } else { (self.team_lost + 1).min(3) };
-                    self.team_until = self.steps + if self.team_on { TEAM_SEGMENT } else { (TEAM_SEGMENT / 16) << (self.team_lost - 1) };
-                    if !self.team_on {
-                        crate::dem::team::dismiss();
-                    }
-                    ran = k.min(self.team_until - self.steps);
-                    self.steps_with::<R, IMP, L>(ran)
-                });
-                left -= 2 * TEAM_PROBE + ran;
+                res = crate::dem::team::with_team(true, || self.team_blocks::<R, IMP, L>(left, &mut ran));
+                left -= ran;
             } else {
-                let on = team && (!self.team_probe || self.team_on);
-                // until the choice expires (then probe again), else to the end
-                let k = if team && self.team_probe && self.team_until > self.steps { left.min(self.team_until - self.steps) } else { left };
-                res = crate::dem::team::with_team(on, || self.steps_with::<R, IMP, L>(k));
+                // alone until the team's next try (timed: the reference for it; steps alone
+                // are measured whenever they run)
+                let k = if self.solo_ref.is_some() { left.min(self.team_until - self.steps) } else { left };
+                let t0 = Instant::now();
+                res = self.steps_with::<R, IMP, L>(k);
+                if k >= TEAM_PROBE {
+                    self.solo_ref = Some((t0.elapsed().as_secs_f64() / k as f64, self.steps));
+                }
                 left -= k;
             }
         }
         self.walls_seen.clone_from(&self.walls);
         res
+    }
+
+    /// Up to `left` steps with the team (`World::run_with`), in blocks timed against the
+    /// reference alone (`solo_ref`): the first after TEAM_PROBE / 4 steps that wake the
+    /// helpers and fill their caches, then TEAM_BLOCK steps each. Stops when a block is
+    /// not clearly faster than the reference (the other core got busy, or the team does
+    /// not pay on this scene: the team rests, and is tried again after TEAM_SEGMENT / 16
+    /// steps, doubling with every further loss up to TEAM_SEGMENT / 4) or when the
+    /// reference is older than TEAM_REFRESH steps. `ran`: steps done.
+    fn team_blocks<const R: bool, const IMP: bool, const L: bool>(&mut self, left: u64, ran: &mut u64) -> Result<(), DemError> {
+        let warm = (TEAM_PROBE / 4).min(left);
+        self.steps_with::<R, IMP, L>(warm)?;
+        *ran = warm;
+        let mut block = TEAM_PROBE - warm;
+        while *ran < left {
+            let k = block.min(left - *ran);
+            let t0 = Instant::now();
+            self.steps_with::<R, IMP, L>(k)?;
+            *ran += k;
+            let (solo, at) = self.solo_ref.unwrap_or((f64::INFINITY, self.steps));
+            // a short block is noisy: the team must be clearly faster
+            if k >= TEAM_PROBE / 2 && !(t0.elapsed().as_secs_f64() / (k as f64) < 0.9 * solo) {
+                self.team_lost = (self.team_lost + 1).min(3);
+                self.team_until = self.steps + ((TEAM_SEGMENT / 16) << (self.team_lost - 1));
+                crate::dem::team::dismiss();
+                return Ok(());
+            }
+            self.team_lost = 0;
+            if self.steps >= at + TEAM_REFRESH {
+                break;
+            }
+            block = TEAM_BLOCK;
+        }
+        Ok(())
     }
 
     /// `n` steps. On a thread team, two steps of this call are *joined* (except where the
