@@ -82,11 +82,13 @@ fn new_max_overlap(part: &mut Partial, overlap: Real, dmin: Real, i: usize, j: u
 }
 
 /// Pass 1 of the pair pass: which listed pairs of a chunk have work (touching, or
-/// separated with a history still to drop), in pair order. Branch-free: a separated pair
-/// found separated before has nothing left to drop and is skipped, and whether a pair
-/// touches follows no pattern along the list — as a branch it was mispredicted pair after
-/// pair. Reads positions and radii only, so on a thread team it runs beside the spin work
-/// of a joined step's start (`World::joined_forces`).
+/// separated with a history still to drop), in pair order. A live pair (touching at its
+/// last evaluation, `World::plive`) has work whatever it does now, so only the others are
+/// checked, 64 pairs to a word of live bits: a separated pair found separated before has
+/// nothing left to drop and has work only if it touches now (without a branch: whether a
+/// pair touches follows no pattern along the list). Reads positions and radii only, so on
+/// a thread team it runs beside the spin work of a joined step's start
+/// (`World::staged_forces`).
 #[derive(Clone, Copy)]
 pub(crate) struct PairFilter {
     pi: Rd<u32>,
@@ -96,14 +98,14 @@ pub(crate) struct PairFilter {
     y: Rd<Real>,
     r: Rd<Real>,
     lx: Real,
-    live: Ptr<u8>,
+    live: Ptr<u64>,
     todo: Ptr<u16>,
 }
 
 impl PairFilter {
     pub(crate) fn new(w: &mut World) -> Self {
         let nl = &w.nl;
-        debug_assert!(w.plive.len() == nl.len() && w.todo.len() >= nl.len());
+        debug_assert!(w.plive.len() == nl.len().div_ceil(64) && w.todo.len() >= nl.len());
         PairFilter {
             pi: Rd::new(&nl.pi),
             pj: Rd::new(&nl.pj),
@@ -117,8 +119,8 @@ impl PairFilter {
         }
     }
 
-    /// Writes the offsets from `lo` of the pairs `lo..hi` with work to `todo[lo..]`;
-    /// returns how many.
+    /// Writes the offsets from `lo` of the pairs `lo..hi` with work to `todo[lo..]`, in
+    /// increasing order; returns how many.
     ///
     /// # Safety
     /// `lo..hi` is one pair chunk of the list the filter was made for, whose `todo` and
@@ -136,19 +138,33 @@ impl PairFilter {
     #[inline(always)]
     pub(crate) unsafe fn run_to(&self, lo: usize, hi: usize, dst: *mut u16) -> usize {
         let (pi, pj, shift, x, y, r, lx) = (self.pi, self.pj, self.shift, self.x, self.y, self.r, self.lx);
+        debug_assert!(lo % 64 == 0 && hi - lo <= PAIR_CHUNK);
         let mut n_todo = 0usize;
-        for k in lo..hi {
-            let (i, j) = (pi[k] as usize, pj[k] as usize);
-            let dx = x[i] - (x[j] + shift[k] * lx);
-            let dy = y[i] - y[j];
-            let rsq = dx * dx + dy * dy;
-            let radsum = r[i] + r[j];
-            let touching = !(rsq >= radsum * radsum);
-            // SAFETY: caller's contract
-            unsafe {
-                let work = touching | (self.live.get(k) != 0);
-                dst.add(n_todo).write((k - lo) as u16);
-                n_todo += usize::from(work);
+        for base in (lo..hi).step_by(64) {
+            let valid = if hi - base >= 64 { !0u64 } else { (1u64 << (hi - base)) - 1 };
+            // SAFETY: caller's contract (this chunk's words)
+            let live = unsafe { self.live.get(base / 64) } & valid;
+            let mut work = live;
+            let mut rest = !live & valid;
+            while rest != 0 {
+                let b = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let k = base + b;
+                let (i, j) = (pi[k] as usize, pj[k] as usize);
+                let dx = x[i] - (x[j] + shift[k] * lx);
+                let dy = y[i] - y[j];
+                let rsq = dx * dx + dy * dy;
+                let radsum = r[i] + r[j];
+                let touching = !(rsq >= radsum * radsum);
+                work |= u64::from(touching) << b;
+            }
+            let o = base - lo;
+            while work != 0 {
+                let b = work.trailing_zeros() as usize;
+                work &= work - 1;
+                // SAFETY: caller's contract; at most hi - lo offsets
+                unsafe { dst.add(n_todo).write((o + b) as u16) };
+                n_todo += 1;
             }
         }
         n_todo
@@ -176,7 +192,7 @@ pub(crate) struct PairPass<const R: bool, const IMP: bool, const L: bool> {
     hist: Ptr<ContactState>,
     pout: Ptr<[Real; 4]>,
     ritems: Ptr<RollItem>,
-    live: Ptr<u8>,
+    live: Ptr<u64>,
     /// The filter of this list; its `todo` holds the pairs to evaluate.
     pub(crate) filter: PairFilter,
 }
@@ -190,7 +206,7 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         if w.roll.items.len() < np {
             w.roll.items.resize(np, RollItem::default());
         }
-        debug_assert_eq!(w.plive.len(), np);
+        debug_assert_eq!(w.plive.len(), np.div_ceil(64));
         debug_assert!(w.nl.pj.iter().all(|&j| (j as usize) < w.state.len()));
         let filter = PairFilter::new(w);
         let (nl, s) = (&mut w.nl, &mut w.state);
@@ -249,6 +265,9 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         // additions as into `part`).
         let (mut led_n, mut led_t, mut led_r) = (0.0, 0.0, 0.0);
         let mut n_roll = 0usize;
+        // the chunk's live bits after this evaluation: its touching pairs (a pair without
+        // work stays separated, with no history)
+        let mut now_live = [0u64; PAIR_CHUNK / 64];
         let mut scratch = PAIR_SCRATCH.take().unwrap_or_else(|| Box::new((PairBatch::default(), PairBatchOut::default())));
         let (b, bo) = &mut *scratch;
         for batch in todo.chunks(BATCH) {
@@ -287,7 +306,6 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
                 unsafe {
                     // separated → drop history (once)
                     if b.rsq[l] >= radsum * radsum {
-                        live.set(k, 0);
                         let h = hist.get(k);
                         if h != ContactState::default() {
                             if L {
@@ -305,7 +323,7 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
                     if overlap > part.max_overlap * dmin {
                         new_max_overlap(&mut part, overlap, dmin, i, j);
                     }
-                    live.set(k, 1);
+                    now_live[o as usize / 64] |= 1 << (o % 64);
                     hist.set(k, ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] });
                     pout.set(k, [bo.fx[l], bo.fy[l], bo.t_i[l], bo.t_j[l]]);
                     if IMP {
@@ -323,6 +341,10 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
             }
         }
         PAIR_SCRATCH.set(Some(scratch));
+        for (q, &v) in now_live[..(hi - lo).div_ceil(64)].iter().enumerate() {
+            // SAFETY: this chunk's words
+            unsafe { live.set(lo / 64 + q, v) };
+        }
         part.ledger.normal_damping += led_n;
         part.ledger.tangential += led_t;
         part.ledger.rolling += led_r;
@@ -602,3 +624,56 @@ pub(crate) fn grain_chunk_deps(istart: &[u32], jstart: &[u32], jlist: &[u32], n:
 }
 
 const _: () = assert!(MAX_WALLS <= 8);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::params::DemParams;
+    use crate::dem::prep::{SplitMix64, box_walls, hex_lattice};
+
+    /// The filter lists, chunk by chunk and in pair order, exactly the pairs that touch
+    /// or are live — on a packing shaken so that some contacts open and others close,
+    /// with random live bits and a short last chunk.
+    #[test]
+    fn filter_lists_exactly_the_touching_and_live_pairs() {
+        let p = DemParams::default();
+        let d = 1.15e-3;
+        let s = hex_lattice(0.04, 0.03, d, p.density);
+        let mut w = World::new(p, s, box_walls(0.04), None).unwrap();
+        let np = w.nl.len();
+        assert!(np > 3 * PAIR_CHUNK && np % PAIR_CHUNK != 0 && np % 64 != 0, "{np} pairs");
+        let mut rng = SplitMix64(3);
+        for trial in 0..4 {
+            for a in 0..w.state.len() {
+                w.state.x[a] += 0.02 * d * (rng.next_f64() - 0.5);
+                w.state.y[a] += 0.02 * d * (rng.next_f64() - 0.5);
+            }
+            for (q, v) in w.plive.iter_mut().enumerate() {
+                let bits = (rng.next_f64() * u32::MAX as f64) as u64 | ((rng.next_f64() * u32::MAX as f64) as u64) << 32;
+                let tail = np - (q * 64).min(np);
+                *v = if tail >= 64 { bits } else { bits & ((1u64 << tail) - 1) };
+            }
+            let f = PairFilter::new(&mut w);
+            let (s, nl) = (&w.state, &w.nl);
+            let mut touching = 0;
+            for lo in (0..np).step_by(PAIR_CHUNK) {
+                let hi = (lo + PAIR_CHUNK).min(np);
+                let mut got = vec![0u16; PAIR_CHUNK];
+                // SAFETY: one chunk of the list the filter was made for, nothing else running
+                let k = unsafe { f.run_to(lo, hi, got.as_mut_ptr()) };
+                let want: Vec<u16> = (lo..hi)
+                    .filter(|&k| {
+                        let (i, j) = (nl.pi[k] as usize, nl.pj[k] as usize);
+                        let (dx, dy) = (s.x[i] - s.x[j], s.y[i] - s.y[j]);
+                        let t = (dx * dx + dy * dy).sqrt() < s.r[i] + s.r[j];
+                        touching += usize::from(t);
+                        t || w.plive[k / 64] >> (k % 64) & 1 == 1
+                    })
+                    .map(|k| (k - lo) as u16)
+                    .collect();
+                assert_eq!(&got[..k], &want[..], "trial {trial}, chunk at {lo}");
+            }
+            assert!(touching > np / 10, "too few contacts: {touching} of {np}");
+        }
+    }
+}

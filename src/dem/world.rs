@@ -40,6 +40,8 @@ use std::time::Instant;
 
 /// Pairs per parallel work unit (fixed: the reduction order must not depend on threads).
 pub const PAIR_CHUNK: usize = 512;
+// a pair chunk's live bits are whole words (`World::plive`)
+const _: () = assert!(PAIR_CHUNK % 64 == 0 && PAIR_CHUNK <= 1 << 16);
 /// Grains per parallel work unit.
 pub const GRAIN_CHUNK: usize = 256;
 /// [`World::run`] steps a world with a thread team while the team is clearly faster than
@@ -263,12 +265,13 @@ pub struct World {
     pub(crate) pout: Vec<[Real; 4]>,
     /// Implicit rolling dashpots of the last force evaluation, in sweep order.
     pub(crate) roll: RollLists,
-    /// Per listed pair: 0 when its last evaluation found it separated, so that its
-    /// history and output are zero and stay so while it stays separated (the pair pass
-    /// then does nothing for it). Set to 1 for
-    /// every pair by a rebuild or a history restore.
-    pub(crate) plive: Vec<u8>,
-    /// The same per grain–wall slot (`wall * n + grain`).
+    /// Per listed pair, one bit (pair k: bit k % 64 of word k / 64): 0 when its last
+    /// evaluation found it separated, so that its history and output are zero and stay
+    /// so while it stays separated (the pair pass then does nothing for it). Set for
+    /// every pair by a rebuild or a history restore ([`World::all_pairs_live`]). A live
+    /// pair is evaluated whether or not it touches: the filter checks only the others.
+    pub(crate) plive: Vec<u64>,
+    /// The same per grain–wall slot (`wall * n + grain`), one byte each.
     pub(crate) wlive: Vec<u8>,
     /// Per wall, the grains near it (the grain–wall pass visits only those).
     pub(crate) near: NearWalls,
@@ -405,9 +408,18 @@ impl World {
         // sweeps between a rebuild and that pass read the last evaluation's dashpots)
         self.todo.resize(np.div_ceil(PAIR_CHUNK) * PAIR_CHUNK, 0);
         self.gdeps = grain_chunk_deps(&self.nl.istart, &self.nl.jstart, &self.nl.jlist, self.state.len(), GRAIN_CHUNK);
-        self.plive.clear();
-        self.plive.resize(np, 1);
+        self.all_pairs_live();
         self.near.invalidate();
+    }
+
+    /// Every listed pair live (its history unknown to the pair pass until evaluated).
+    fn all_pairs_live(&mut self) {
+        let np = self.nl.len();
+        self.plive.clear();
+        self.plive.resize(np.div_ceil(64), !0);
+        if np % 64 != 0 {
+            self.plive[np / 64] = (1u64 << (np % 64)) - 1;
+        }
     }
 
     /// Make the near-wall lists again if they no longer hold (see [`NearWalls`]).
@@ -996,7 +1008,7 @@ impl World {
                 restored += 1;
             }
         }
-        self.plive.fill(1);
+        self.all_pairs_live();
         self.wlive.fill(1);
         self.near.invalidate();
         self.forces_valid = false;
