@@ -271,39 +271,12 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
     /// several contacts at once (SIMD), where one contact after another was bound by the
     /// latency of its chain √ → ÷ → cone test → ÷.
     ///
-    /// Dispatches to a build of the loop for the widest vector unit the CPU has (AVX-512,
-    /// AVX2, else the baseline's SSE2): IEEE add, multiply, divide and square root are
-    /// exactly rounded at any width, and no multiply–add is fused, so every width gives
-    /// the same bits.
-    #[inline]
-    pub(crate) fn eval_pairs(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has the feature
-                return unsafe { Self::eval_pairs_avx512(c, b, o, nb, dt) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has the feature
-                return unsafe { Self::eval_pairs_avx2(c, b, o, nb, dt) };
-            }
-        }
-        Self::eval_pairs_lanes(c, b, o, nb, dt)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    #[inline(never)]
-    unsafe fn eval_pairs_avx512(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Self::eval_pairs_lanes(c, b, o, nb, dt) }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    unsafe fn eval_pairs_avx2(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Self::eval_pairs_lanes(c, b, o, nb, dt) }
-
-    /// The lane loop of [`Law::eval_pairs`].
+    /// Inlined into its caller, which is built for the widest vector unit the CPU has
+    /// (`passes::PairPass::chunk` dispatches to AVX-512, AVX2, else the baseline's SSE2):
+    /// IEEE add, multiply, divide and square root are exactly rounded at any width, and
+    /// no multiply–add is fused, so every width gives the same bits.
     #[inline(always)]
-    pub(crate) fn eval_pairs_lanes(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) {
+    pub(crate) fn eval_pairs(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) {
         let nb = nb.min(BATCH);
         for l in 0..nb {
             let d = b.rsq[l].sqrt();
@@ -408,10 +381,39 @@ mod tests {
         assert_eq!(o.roll.c, 0.0, "no dashpot at full mobilisation");
     }
 
-    /// The batched law (SIMD lanes, whichever vector width the CPU has) gives the same bits
-    /// as one scalar call per contact, over sticking, sliding, rolling-plastic, separating
-    /// and capped contacts.
+    type EvalPairs = unsafe fn(&LawCoeffs, &mut PairBatch, &mut PairBatchOut, usize, Real);
+
+    fn eval_base<const R: bool, const I: bool, const L: bool>(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Law::<R, I, L>::eval_pairs(c, b, o, nb, dt) }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn eval_avx2<const R: bool, const I: bool, const L: bool>(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Law::<R, I, L>::eval_pairs(c, b, o, nb, dt) }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn eval_avx512<const R: bool, const I: bool, const L: bool>(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Law::<R, I, L>::eval_pairs(c, b, o, nb, dt) }
+
+    /// The batched law built for each vector width this CPU has (the pair pass runs the
+    /// widest) gives the same bits as one scalar call per contact, over sticking, sliding,
+    /// rolling-plastic, separating and capped contacts.
     fn batch_matches_scalar<const R: bool, const I: bool, const L: bool>(cap_dashpot: bool) {
+        let mut widths: Vec<(&str, EvalPairs)> = vec![("baseline", eval_base::<R, I, L>)];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                widths.push(("avx2", eval_avx2::<R, I, L>));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                widths.push(("avx512f", eval_avx512::<R, I, L>));
+            }
+        }
+        for (name, eval) in widths {
+            eprintln!("lanes built for {name}");
+            batch_matches_scalar_with::<R, I, L>(cap_dashpot, eval);
+        }
+    }
+
+    fn batch_matches_scalar_with<const R: bool, const I: bool, const L: bool>(cap_dashpot: bool, eval: EvalPairs) {
         let mut c = coeffs();
         c.cap_dashpot = cap_dashpot;
         let mut rng = crate::dem::prep::SplitMix64(7);
@@ -456,7 +458,8 @@ mod tests {
             let r = Law::<R, I, L>::eval(&c, &p, &mut hh, 1e-6);
             want.push((hh, r, p.overlap));
         }
-        Law::<R, I, L>::eval_pairs(&c, &mut b, &mut o, nb, 1e-6);
+        // SAFETY: `eval` is built for a feature this CPU has
+        unsafe { eval(&c, &mut b, &mut o, nb, 1e-6) };
         let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let (mut touching, mut sliding, mut plastic) = (0, 0, 0);
         for (l, (h, r, ov)) in want.iter().enumerate() {

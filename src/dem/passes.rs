@@ -241,6 +241,36 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
     /// `lo..hi` is one pair chunk, its slots touched by no other thread meanwhile; nothing
     /// writes the positions, velocities or spins of its grains meanwhile.
     pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has the feature; caller's contract
+                return unsafe { self.chunk_avx512(lo, hi, filtered) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has the feature; caller's contract
+                return unsafe { self.chunk_avx2(lo, hi, filtered) };
+            }
+        }
+        // SAFETY: caller's contract
+        unsafe { self.chunk_body(lo, hi, filtered) }
+    }
+
+    // The chunk built for the widest vector unit the CPU has, the law's lanes inlined
+    // (`Law::eval_pairs`): one call per chunk instead of one per batch, no spills around
+    // it, and the gathers and stores compiled for the same unit. Same bits at any width.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline(never)]
+    unsafe fn chunk_avx512(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial { unsafe { self.chunk_body(lo, hi, filtered) } }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn chunk_avx2(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial { unsafe { self.chunk_body(lo, hi, filtered) } }
+
+    #[inline(always)]
+    unsafe fn chunk_body(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
         let mut part = Partial::default();
         let (pi, pj, shift, cn, rr, lx) = (self.pi, self.pj, self.shift, self.cn, self.rr, self.lx);
         let (x, y, vx, vy, w, r) = (self.x, self.y, self.vx, self.vy, self.w, self.r);
@@ -455,6 +485,33 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
     /// `lo..hi` is one grain chunk, whose grains no other thread touches meanwhile, and
     /// every pair of its grains has been evaluated (`pout`).
     pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize) -> GrainChunk {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has the feature; caller's contract
+                return unsafe { self.chunk_avx512(lo, hi) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has the feature; caller's contract
+                return unsafe { self.chunk_avx2(lo, hi) };
+            }
+        }
+        // SAFETY: caller's contract
+        unsafe { self.chunk_body(lo, hi) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline(never)]
+    unsafe fn chunk_avx512(&self, lo: usize, hi: usize) -> GrainChunk { unsafe { self.chunk_body(lo, hi) } }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn chunk_avx2(&self, lo: usize, hi: usize) -> GrainChunk { unsafe { self.chunk_body(lo, hi) } }
+
+    #[inline(always)]
+    unsafe fn chunk_body(&self, lo: usize, hi: usize) -> GrainChunk {
         let (n, dt, step_dt, on) = (self.n, self.dt, self.step_dt, self.on);
         let h = 0.5 * step_dt;
         let (istart, jstart, jlist, pout, m, r, g) = (self.istart, self.jstart, self.jlist, self.pout, self.m, self.r, self.g);
