@@ -125,11 +125,26 @@ impl PairFilter {
     /// # Safety
     /// `lo..hi` is one pair chunk of the list the filter was made for, whose `todo` and
     /// `live` entries no other thread touches meanwhile, nor the positions of its grains.
-    #[inline(always)]
     pub(crate) unsafe fn run(&self, lo: usize, hi: usize) -> usize {
+        // SAFETY: caller's contract (a chunk of the list: in bounds of `todo`)
+        let dst = unsafe { self.todo.0.add(lo) };
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("bmi1") {
+                // SAFETY: the CPU has the features; caller's contract
+                return unsafe { self.run_avx512(lo, hi, dst) };
+            }
+        }
         // SAFETY: caller's contract
-        unsafe { self.run_to(lo, hi, self.todo.0.add(lo)) }
+        unsafe { self.run_to(lo, hi, dst) }
     }
+
+    /// The filter built for AVX-512 and BMI1 (`tzcnt`), as the pair chunk that runs it
+    /// unfiltered (`PairPass::chunk`).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,bmi1")]
+    #[inline(never)]
+    unsafe fn run_avx512(&self, lo: usize, hi: usize, dst: *mut u16) -> usize { unsafe { self.run_to(lo, hi, dst) } }
 
     /// As [`PairFilter::run`], the offsets to `dst[..hi - lo]`.
     ///
@@ -243,8 +258,8 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
     pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has the feature; caller's contract
+            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("bmi1") {
+                // SAFETY: the CPU has the features; caller's contract
                 return unsafe { self.chunk_avx512(lo, hi, filtered) };
             }
             if std::arch::is_x86_feature_detected!("avx2") {
@@ -260,7 +275,7 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
     // (`Law::eval_pairs`): one call per chunk instead of one per batch, no spills around
     // it, and the gathers and stores compiled for the same unit. Same bits at any width.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
+    #[target_feature(enable = "avx512f,bmi1")]
     #[inline(never)]
     unsafe fn chunk_avx512(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial { unsafe { self.chunk_body(lo, hi, filtered) } }
 
