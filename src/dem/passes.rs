@@ -8,7 +8,7 @@
 //! A job holds raw views of the world's arrays ([`Rd`], [`Ptr`]) rather than borrows, so
 //! that one phase can run several of them at once on a thread team — a grain chunk may
 //! drift positions that the pair pass of other chunks still reads, once those chunks are
-//! done (`World::joined_forces` orders them). A job is valid while the world's arrays are
+//! done (`World::staged_forces` orders them). A job is valid while the world's arrays are
 //! not reallocated: for one phase, made just before it.
 
 use crate::dem::contact_law::{BATCH, Law, LawCoeffs, PairBatch, PairBatchOut, PairIn, RollDashpot};
@@ -215,7 +215,7 @@ pub(crate) struct PairPass<const R: bool, const IMP: bool, const L: bool> {
 impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
     /// The pass over `w`'s list with histories advancing by `dt`. The dashpot list grows
     /// to the list's size here (never shrinks: the sweeps of a joined step read the last
-    /// evaluation's dashpots in the same phase, `World::joined_forces`).
+    /// evaluation's dashpots in the same phase, `World::staged_forces`).
     pub(crate) fn new(w: &mut World, dt: Real) -> Self {
         let np = w.nl.len();
         if w.roll.items.len() < np {
