@@ -65,6 +65,44 @@ impl<T> std::ops::Index<usize> for Rd<T> {
     }
 }
 
+/// Three methods of a chunk kernel: `$name`, which runs the kernel's body `$body` (an
+/// `#[inline(always)]` method) built for the widest vector unit the CPU has, and the two
+/// builds `$avx512` (AVX-512 with BMI1's `tzcnt`) and `$avx2`; else the baseline's SSE2.
+/// A build is the whole chunk, the law's lanes inlined (`Law::eval_pairs`): one call per
+/// chunk, no spills around the law, the gathers and stores built for the same unit. IEEE
+/// add, multiply, divide and square root are exactly rounded at any width and nothing is
+/// fused, so every build gives the same bits (the law's batch test runs each width).
+macro_rules! built_for_the_widest_unit {
+    ($(#[$doc:meta])* $name:ident, $avx512:ident, $avx2:ident => $body:ident($($a:ident: $t:ty),*) -> $r:ty) => {
+        $(#[$doc])*
+        pub(crate) unsafe fn $name(&self, $($a: $t),*) -> $r {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("bmi1") {
+                    // SAFETY: the CPU has the features; caller's contract
+                    return unsafe { self.$avx512($($a),*) };
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has the feature; caller's contract
+                    return unsafe { self.$avx2($($a),*) };
+                }
+            }
+            // SAFETY: caller's contract
+            unsafe { self.$body($($a),*) }
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,bmi1")]
+        #[inline(never)]
+        unsafe fn $avx512(&self, $($a: $t),*) -> $r { unsafe { self.$body($($a),*) } }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        #[inline(never)]
+        unsafe fn $avx2(&self, $($a: $t),*) -> $r { unsafe { self.$body($($a),*) } }
+    };
+}
+
 thread_local! {
     /// Lanes of the pair pass's batches, one set per thread (kept between chunks: filling
     /// 20 kB with zeros per chunk cost 2 % of the step).
@@ -127,24 +165,17 @@ impl PairFilter {
     /// `live` entries no other thread touches meanwhile, nor the positions of its grains.
     pub(crate) unsafe fn run(&self, lo: usize, hi: usize) -> usize {
         // SAFETY: caller's contract (a chunk of the list: in bounds of `todo`)
-        let dst = unsafe { self.todo.0.add(lo) };
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("bmi1") {
-                // SAFETY: the CPU has the features; caller's contract
-                return unsafe { self.run_avx512(lo, hi, dst) };
-            }
-        }
-        // SAFETY: caller's contract
-        unsafe { self.run_to(lo, hi, dst) }
+        unsafe { self.run_widest(lo, hi, self.todo.0.add(lo)) }
     }
 
-    /// The filter built for AVX-512 and BMI1 (`tzcnt`), as the pair chunk that runs it
-    /// unfiltered (`PairPass::chunk`).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,bmi1")]
-    #[inline(never)]
-    unsafe fn run_avx512(&self, lo: usize, hi: usize, dst: *mut u16) -> usize { unsafe { self.run_to(lo, hi, dst) } }
+    built_for_the_widest_unit! {
+        /// [`PairFilter::run_to`] built for the CPU's vector unit (as the pair chunk that
+        /// runs it unfiltered).
+        ///
+        /// # Safety
+        /// As [`PairFilter::run_to`].
+        run_widest, run_avx512, run_avx2 => run_to(lo: usize, hi: usize, dst: *mut u16) -> usize
+    }
 
     /// As [`PairFilter::run`], the offsets to `dst[..hi - lo]`.
     ///
@@ -248,41 +279,16 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         }
     }
 
-    /// The pairs `lo..hi` (one chunk): the filter first, unless it has run and found
-    /// `filtered` pairs with work. Returns the chunk's partial (`n_roll[0]`: dashpots it
-    /// listed at `ritems[lo..]`).
-    ///
-    /// # Safety
-    /// `lo..hi` is one pair chunk, its slots touched by no other thread meanwhile; nothing
-    /// writes the positions, velocities or spins of its grains meanwhile.
-    pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("bmi1") {
-                // SAFETY: the CPU has the features; caller's contract
-                return unsafe { self.chunk_avx512(lo, hi, filtered) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has the feature; caller's contract
-                return unsafe { self.chunk_avx2(lo, hi, filtered) };
-            }
-        }
-        // SAFETY: caller's contract
-        unsafe { self.chunk_body(lo, hi, filtered) }
+    built_for_the_widest_unit! {
+        /// The pairs `lo..hi` (one chunk): the filter first, unless it has run and found
+        /// `filtered` pairs with work. Returns the chunk's partial (`n_roll[0]`: dashpots it
+        /// listed at `ritems[lo..]`).
+        ///
+        /// # Safety
+        /// `lo..hi` is one pair chunk, its slots touched by no other thread meanwhile; nothing
+        /// writes the positions, velocities or spins of its grains meanwhile.
+        chunk, chunk_avx512, chunk_avx2 => chunk_body(lo: usize, hi: usize, filtered: Option<usize>) -> Partial
     }
-
-    // The chunk built for the widest vector unit the CPU has, the law's lanes inlined
-    // (`Law::eval_pairs`): one call per chunk instead of one per batch, no spills around
-    // it, and the gathers and stores compiled for the same unit. Same bits at any width.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,bmi1")]
-    #[inline(never)]
-    unsafe fn chunk_avx512(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial { unsafe { self.chunk_body(lo, hi, filtered) } }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    unsafe fn chunk_avx2(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial { unsafe { self.chunk_body(lo, hi, filtered) } }
 
     #[inline(always)]
     unsafe fn chunk_body(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
@@ -494,36 +500,14 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
         }
     }
 
-    /// Grains `lo..hi` (one chunk).
-    ///
-    /// # Safety
-    /// `lo..hi` is one grain chunk, whose grains no other thread touches meanwhile, and
-    /// every pair of its grains has been evaluated (`pout`).
-    pub(crate) unsafe fn chunk(&self, lo: usize, hi: usize) -> GrainChunk {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has the feature; caller's contract
-                return unsafe { self.chunk_avx512(lo, hi) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has the feature; caller's contract
-                return unsafe { self.chunk_avx2(lo, hi) };
-            }
-        }
-        // SAFETY: caller's contract
-        unsafe { self.chunk_body(lo, hi) }
+    built_for_the_widest_unit! {
+        /// Grains `lo..hi` (one chunk).
+        ///
+        /// # Safety
+        /// `lo..hi` is one grain chunk, whose grains no other thread touches meanwhile, and
+        /// every pair of its grains has been evaluated (`pout`).
+        chunk, chunk_avx512, chunk_avx2 => chunk_body(lo: usize, hi: usize) -> GrainChunk
     }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    #[inline(never)]
-    unsafe fn chunk_avx512(&self, lo: usize, hi: usize) -> GrainChunk { unsafe { self.chunk_body(lo, hi) } }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    unsafe fn chunk_avx2(&self, lo: usize, hi: usize) -> GrainChunk { unsafe { self.chunk_body(lo, hi) } }
 
     #[inline(always)]
     unsafe fn chunk_body(&self, lo: usize, hi: usize) -> GrainChunk {
