@@ -26,7 +26,10 @@
 //! the lead alone. So [`World::run`](crate::dem::World::run) times a few steps alone and a
 //! few with the team, and keeps the faster (see `World::run_with`).
 
+use std::any::Any;
 use std::cell::{Cell, UnsafeCell};
+use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering::*};
 
 /// Below this many grains a world steps on its calling thread even in a multi-thread
@@ -63,6 +66,12 @@ pub(crate) struct Team {
     jobs: UnsafeCell<[Option<Job>; MAX_STAGES]>,
     /// Divisor of the chunks left that one claim takes ([`Team::grab`]).
     share: usize,
+    /// Set when a chunk panicked: chunks waiting for another's output stop waiting
+    /// ([`wait_for`]), the phase runs out, and the lead raises the first panic again —
+    /// instead of every thread waiting for a chunk that will never be done.
+    failed: AtomicBool,
+    /// The first panic's payload.
+    failure: Mutex<Option<Box<dyn Any + Send>>>,
 }
 
 // SAFETY: `jobs` is written by the lead only while no chunk of the previous phase is
@@ -82,6 +91,18 @@ impl Team {
             quit: AtomicBool::new(false),
             jobs: UnsafeCell::new([None; MAX_STAGES]),
             share: 2 * threads.max(1),
+            failed: AtomicBool::new(false),
+            failure: Mutex::new(None),
+        }
+    }
+
+    /// Chunks `cs` of job `f`; a panic is kept for the lead (see `failed`).
+    #[inline(always)]
+    fn chunks(&self, cs: impl Iterator<Item = usize>, f: &(dyn Fn(usize) + Sync)) {
+        if let Err(p) = catch_unwind(AssertUnwindSafe(|| cs.for_each(f))) {
+            let mut first = self.failure.lock().unwrap_or_else(|e| e.into_inner());
+            first.get_or_insert(p);
+            self.failed.store(true, Release);
         }
     }
 
@@ -131,7 +152,7 @@ impl Team {
                 if front >= back { break; }
                 let c = self.grab(back - front);
                 if st.compare_exchange_weak(s, s + ((c as u64) << BITS), Acquire, Relaxed).is_ok() {
-                    (front..front + c).for_each(f);
+                    self.chunks(front..front + c, f);
                     mine += c;
                 }
             }
@@ -141,11 +162,17 @@ impl Team {
         while self.done.load(Acquire) + mine < total {
             backoff(&mut spins);
         }
+        if self.failed.load(Acquire) {
+            let p = self.failure.lock().unwrap_or_else(|e| e.into_inner()).take();
+            resume_unwind(p.unwrap_or_else(|| Box::new("a chunk of a DEM team phase panicked")));
+        }
     }
 
     /// Helper: claim chunks from the back of each stage in turn, phase after phase, until
     /// the lead's run is over.
     fn help(&self) {
+        MEMBER.with(|m| m.set(self as *const Team));
+        let _member = Member;
         let mut spins = 0u32;
         let mut seen = 0u64;
         loop {
@@ -167,7 +194,7 @@ impl Team {
                             // and outlives this call (the lead waits for `done`).
                             let f = unsafe { &*(*self.jobs.get())[k].unwrap_unchecked() };
                             // from the back down, as one chunk per claim did
-                            (back - c..back).rev().for_each(f);
+                            self.chunks((back - c..back).rev(), f);
                             self.done.fetch_add(c, Release);
                         }
                     }
@@ -195,7 +222,34 @@ pub(crate) fn backoff(spins: &mut u32) {
 }
 
 thread_local! {
+    /// The team this thread leads.
     static CURRENT: Cell<*const Team> = const { Cell::new(std::ptr::null()) };
+    /// The team this thread helps (while in `Team::help`).
+    static MEMBER: Cell<*const Team> = const { Cell::new(std::ptr::null()) };
+}
+
+/// Clears `MEMBER` when a helper leaves its team.
+struct Member;
+impl Drop for Member {
+    fn drop(&mut self) { MEMBER.with(|m| m.set(std::ptr::null())); }
+}
+
+/// Wait until `flag` holds the stamp `id` (a chunk's output is visible, acquire) — or
+/// until a chunk of this thread's team has panicked: the phase is then abandoned, and
+/// its lead raises the panic when every claimed chunk has returned.
+pub(crate) fn wait_for(flag: &AtomicU64, id: u64) {
+    let mut spins = 0u32;
+    while flag.load(Acquire) != id {
+        if spins % 64 == 0 {
+            let t = MEMBER.with(|m| m.get());
+            let t = if t.is_null() { CURRENT.with(|c| c.get()) } else { t };
+            // SAFETY: the team outlives its lead's and helpers' use of it (see `with_team`)
+            if !t.is_null() && unsafe { &*t }.failed.load(Acquire) {
+                return;
+            }
+        }
+        backoff(&mut spins);
+    }
 }
 
 struct Lead<'a>(&'a Team, *const Team);
@@ -258,5 +312,45 @@ pub(crate) fn for_stages(stages: &[Stage<'_>]) {
     } else {
         // SAFETY: set by `with_team` on this thread for the duration of the team's scope.
         unsafe { &*t }.run(stages);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    /// Two stages on a team of two, stage 1's chunk c waiting for stage 0's chunk c; chunk
+    /// `bad` of stage 0 panics. Returns whether the run panicked, or None if it hung (the
+    /// old team waited for ever for the chunk that would never be done).
+    fn panicking_chunk(bad: usize) -> Option<bool> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+            let r = pool.install(|| {
+                catch_unwind(|| {
+                    with_team(true, || {
+                        let done: Vec<AtomicU64> = (0..64).map(|_| AtomicU64::new(0)).collect();
+                        let s0 = |c: usize| {
+                            assert!(c != bad, "chunk {c} fails");
+                            done[c].store(1, Release);
+                        };
+                        let s1 = |c: usize| wait_for(&done[c], 1);
+                        for_stages(&[(64, &s0), (64, &s1)]);
+                    })
+                })
+            });
+            let _ = tx.send(r.is_err());
+        });
+        rx.recv_timeout(Duration::from_secs(60)).ok()
+    }
+
+    /// A chunk that panics makes the run panic (on the lead, when every claimed chunk has
+    /// returned) instead of leaving the other thread waiting for its output for ever —
+    /// whether the lead (first chunk) or, most likely, the helper (last chunk) ran it.
+    #[test]
+    fn a_panicking_chunk_panics_the_run_instead_of_hanging() {
+        assert_eq!(panicking_chunk(0), Some(true), "first chunk");
+        assert_eq!(panicking_chunk(63), Some(true), "last chunk");
     }
 }

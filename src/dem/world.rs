@@ -33,7 +33,8 @@ use crate::dem::walls::{NearWalls, Wall};
 use crate::dem::integrate::{SpinJob, SpinOut};
 use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
 use crate::dem::timers::Phase;
-use std::sync::atomic::{AtomicU64, Ordering::{Acquire, Release}};
+use std::sync::atomic::{AtomicU64, Ordering::Release};
+use crate::dem::team::wait_for;
 use crate::math::{Real, Vec2};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -105,15 +106,6 @@ impl Flags {
         if self.0.len() < n {
             self.0.resize_with(n, || AtomicU64::new(0));
         }
-    }
-}
-
-/// Wait until `flag` holds the stamp `id` (its chunk's output is visible).
-#[inline(always)]
-fn wait_for(flag: &AtomicU64, id: u64) {
-    let mut spins = 0u32;
-    while flag.load(Acquire) != id {
-        crate::dem::team::backoff(&mut spins);
     }
 }
 
