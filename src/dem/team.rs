@@ -23,8 +23,9 @@
 //! A team only pays when its threads run at the same time: when there are more runnable
 //! threads than cores (other processes), a helper descheduled while it holds a chunk
 //! makes the lead wait a time slice at the phase's end, and the step runs slower than on
-//! the lead alone. So [`World::run`](crate::dem::World::run) times a few steps alone and a
-//! few with the team, and keeps the faster (see `World::run_with`).
+//! the lead alone. So [`World::run`](crate::dem::World::run) times steps alone (a
+//! reference) and the team's steps in blocks, and keeps the team while it is clearly the
+//! faster (see [`crate::dem::world::TEAM_PROBE`] and `World::run_with`).
 
 use std::any::Any;
 use std::cell::{Cell, UnsafeCell};

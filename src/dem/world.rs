@@ -46,18 +46,17 @@ const _: () = assert!(PAIR_CHUNK % 64 == 0 && PAIR_CHUNK <= 1 << 16);
 /// Grains per parallel work unit.
 pub const GRAIN_CHUNK: usize = 256;
 /// [`World::run`] steps a world with a thread team while the team is clearly faster than
-/// the world alone: it times [`TEAM_PROBE`] steps alone (the reference, again after
+/// the world alone: it times [`TEAM_PROBE`] steps alone (the reference, taken again after
 /// [`TEAM_REFRESH`] steps), then the team in blocks of [`TEAM_BLOCK`] steps; a team
-/// slower than 0.9 × the reference rests for TEAM_SEGMENT / 16 steps (doubling with
-/// every further loss, up to TEAM_SEGMENT / 4) and is tried again. Results are the same
-/// either way.
-pub const TEAM_SEGMENT: u64 = 4096;
-/// See [`TEAM_SEGMENT`].
+/// slower than 0.9 × the reference rests for [`TEAM_REST`] steps (doubling with every
+/// further loss, up to 4 × TEAM_REST) and is tried again. Results are the same either way.
 pub const TEAM_PROBE: u64 = 128;
-/// See [`TEAM_SEGMENT`].
+/// See [`TEAM_PROBE`].
 pub const TEAM_BLOCK: u64 = 1024;
-/// See [`TEAM_SEGMENT`].
-pub const TEAM_REFRESH: u64 = 8 * TEAM_SEGMENT;
+/// See [`TEAM_PROBE`].
+pub const TEAM_REFRESH: u64 = 32768;
+/// See [`TEAM_PROBE`].
+pub const TEAM_REST: u64 = 256;
 /// Most walls a scene can have.
 pub const MAX_WALLS: usize = 8;
 
@@ -241,7 +240,7 @@ pub struct World {
     pub team_probe: bool,
     /// Keep the phase timers (`timers`; default false: no clock calls in the steps).
     pub timing: bool,
-    /// Seconds per step alone, and the step when timed (see [`TEAM_SEGMENT`]).
+    /// Seconds per step alone, and the step when timed (see [`TEAM_PROBE`]).
     pub(crate) solo_ref: Option<(f64, u64)>,
     /// A team that lost rests until this step.
     pub(crate) team_until: u64,
@@ -541,9 +540,9 @@ impl World {
     /// reference alone (`solo_ref`): the first after TEAM_PROBE / 4 steps that wake the
     /// helpers and fill their caches, then TEAM_BLOCK steps each. Stops when a block is
     /// not clearly faster than the reference (the other core got busy, or the team does
-    /// not pay on this scene: the team rests, and is tried again after TEAM_SEGMENT / 16
-    /// steps, doubling with every further loss up to TEAM_SEGMENT / 4) or when the
-    /// reference is older than TEAM_REFRESH steps. `ran`: steps done.
+    /// not pay on this scene: the team rests, and is tried again after TEAM_REST steps,
+    /// doubling with every further loss up to 4 × TEAM_REST) or when the reference is
+    /// older than TEAM_REFRESH steps. `ran`: steps done.
     fn team_blocks<const R: bool, const IMP: bool, const L: bool>(&mut self, left: u64, ran: &mut u64) -> Result<(), DemError> {
         let warm = (TEAM_PROBE / 4).min(left);
         self.steps_with::<R, IMP, L>(warm)?;
@@ -558,7 +557,7 @@ impl World {
             // a short block is noisy: the team must be clearly faster
             if k >= TEAM_PROBE / 2 && !(t0.elapsed().as_secs_f64() / (k as f64) < 0.9 * solo) {
                 self.team_lost = (self.team_lost + 1).min(3);
-                self.team_until = self.steps + ((TEAM_SEGMENT / 16) << (self.team_lost - 1));
+                self.team_until = self.steps + (TEAM_REST << (self.team_lost - 1));
                 crate::dem::team::dismiss();
                 return Ok(());
             }
