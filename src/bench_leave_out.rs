@@ -46,13 +46,22 @@ pub struct Enabled {
     pub vtk: bool,
 }
 
-fn f(v: &Value, path: &str) -> Option<f64> { v.pointer(path).and_then(Value::as_f64) }
-fn b(v: &Value, path: &str) -> Option<bool> { v.pointer(path).and_then(Value::as_bool) }
-fn n(v: &Value, path: &str) -> usize { v.pointer(path).and_then(Value::as_array).map(|a| a.len()).unwrap_or(0) }
+fn f(v: &Value, path: &str) -> Option<f64> {
+    v.pointer(path).and_then(Value::as_f64)
+}
+fn b(v: &Value, path: &str) -> Option<bool> {
+    v.pointer(path).and_then(Value::as_bool)
+}
+fn n(v: &Value, path: &str) -> usize {
+    v.pointer(path).and_then(Value::as_array).map(|a| a.len()).unwrap_or(0)
+}
 
 /// What a stage's resolved parameters enable (None: not a simulating stage).
 pub fn enabled(id: &str, kind: &str, p: &Value) -> Option<Enabled> {
-    let mut e = Enabled { id: id.to_string(), ..Default::default() };
+    let mut e = Enabled {
+        id: id.to_string(),
+        ..Default::default()
+    };
     if p.get("dem").is_some() && kind.starts_with("dem-") {
         e.engine = "dem";
         if b(p, "/dem/rolling/enabled").unwrap_or(false) {
@@ -109,7 +118,11 @@ fn dem_label(c: DemCfg) -> String {
     if c.2 {
         parts.push("ledger");
     }
-    if parts.is_empty() { "none".into() } else { parts.join(" + ") }
+    if parts.is_empty() {
+        "none".into()
+    } else {
+        parts.join(" + ")
+    }
 }
 
 /// Seconds per step of each DEM configuration on the bench column (best of `rounds`).
@@ -180,14 +193,22 @@ fn time_mpm(steps: u64, rounds: usize) -> Result<(f64, f64, usize), String> {
 
 fn time_cd(steps: u64, rounds: usize) -> Result<(f64, f64), String> {
     use crate::cd::pile::{DropSpec, drop};
-    let spec = DropSpec { ncol: 25, nrow: 20, scale: 1.0, seed: 1 };
+    let spec = DropSpec {
+        ncol: 25,
+        nrow: 20,
+        scale: 1.0,
+        seed: 1,
+    };
     let (mut off, mut on) = (f64::INFINITY, f64::INFINITY);
     for _ in 0..rounds {
         let p = crate::cd::bench::siconos_params();
         let t = thread_cpu_s();
         drop(&spec, &p, steps).map_err(|e| e.to_string())?;
         let t1 = thread_cpu_s();
-        let q = crate::cd::CdParams { rolling_friction: 0.1, ..p };
+        let q = crate::cd::CdParams {
+            rolling_friction: 0.1,
+            ..p
+        };
         drop(&spec, &q, steps).map_err(|e| e.to_string())?;
         off = off.min((t1 - t) / steps as f64);
         on = on.min((thread_cpu_s() - t1) / steps as f64);
@@ -208,10 +229,24 @@ pub fn run(p: &Pipeline, steps: u64) -> i32 {
 }
 
 fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
-    let rows: Vec<Enabled> = p.stages.iter().filter_map(|s| enabled(&s.id, &s.kind, &s.params)).collect();
-    let dem_cfgs: Vec<DemCfg> = vec![(false, false, false), (true, false, false), (true, true, false), (false, false, true), (true, false, true), (true, true, true)];
+    let rows: Vec<Enabled> = p
+        .stages
+        .iter()
+        .filter_map(|s| enabled(&s.id, &s.kind, &s.params))
+        .collect();
+    let dem_cfgs: Vec<DemCfg> = vec![
+        (false, false, false),
+        (true, false, false),
+        (true, true, false),
+        (false, false, true),
+        (true, false, true),
+        (true, true, true),
+    ];
     let rounds = 3;
-    eprintln!("timing DEM ({} configurations × {rounds} rounds × {steps} steps), MPM and CD …", dem_cfgs.len());
+    eprintln!(
+        "timing DEM ({} configurations × {rounds} rounds × {steps} steps), MPM and CD …",
+        dem_cfgs.len()
+    );
     let (dem_t, grains, vtk_dem) = match time_dem(&dem_cfgs, steps, rounds) {
         Ok(v) => v,
         Err(e) => {
@@ -223,7 +258,10 @@ fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
     let cd = time_cd(400, rounds);
     let all_on = dem_t[dem_t.len() - 1];
     for (c, t) in dem_cfgs.iter().zip(&dem_t) {
-        println!("{}", json!({"bench": "leave-out", "engine": "dem", "config": dem_label(*c), "grains": grains, "cpu_s_per_step": t, "vs_all_on": t / all_on}));
+        println!(
+            "{}",
+            json!({"bench": "leave-out", "engine": "dem", "config": dem_label(*c), "grains": grains, "cpu_s_per_step": t, "vs_all_on": t / all_on})
+        );
     }
     let (mc, mui, pts) = match mpm {
         Ok(v) => v,
@@ -232,8 +270,14 @@ fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
             return 1;
         }
     };
-    println!("{}", json!({"bench": "leave-out", "engine": "mpm", "config": "mohr-coulomb", "points": pts, "cpu_s_per_step": mc, "vs_all_on": mc / mui}));
-    println!("{}", json!({"bench": "leave-out", "engine": "mpm", "config": "mu(I)", "points": pts, "cpu_s_per_step": mui, "vs_all_on": 1.0}));
+    println!(
+        "{}",
+        json!({"bench": "leave-out", "engine": "mpm", "config": "mohr-coulomb", "points": pts, "cpu_s_per_step": mc, "vs_all_on": mc / mui})
+    );
+    println!(
+        "{}",
+        json!({"bench": "leave-out", "engine": "mpm", "config": "mu(I)", "points": pts, "cpu_s_per_step": mui, "vs_all_on": 1.0})
+    );
     let (cd_off, cd_on) = match cd {
         Ok(v) => v,
         Err(e) => {
@@ -241,8 +285,14 @@ fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
             return 1;
         }
     };
-    println!("{}", json!({"bench": "leave-out", "engine": "cd", "config": "no rolling", "cpu_s_per_step": cd_off, "vs_all_on": cd_off / cd_on}));
-    println!("{}", json!({"bench": "leave-out", "engine": "cd", "config": "rolling", "cpu_s_per_step": cd_on, "vs_all_on": 1.0}));
+    println!(
+        "{}",
+        json!({"bench": "leave-out", "engine": "cd", "config": "no rolling", "cpu_s_per_step": cd_off, "vs_all_on": cd_off / cd_on})
+    );
+    println!(
+        "{}",
+        json!({"bench": "leave-out", "engine": "cd", "config": "rolling", "cpu_s_per_step": cd_on, "vs_all_on": 1.0})
+    );
     // the per-stage table
     let yes = |x: bool| if x { "yes" } else { "–" };
     println!("\n| stage | engine | rolling | ledger | wall friction | μ(I) | snapshots | VTK | step cost vs all on |");
@@ -250,7 +300,13 @@ fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
     for r in &rows {
         let roll = match r.rolling {
             None => "–",
-            Some(false) => if r.engine == "cd" { "yes (μ_r)" } else { "spring" },
+            Some(false) => {
+                if r.engine == "cd" {
+                    "yes (μ_r)"
+                } else {
+                    "spring"
+                }
+            }
             Some(true) => "spring + dashpot",
         };
         let cost = match r.engine {
@@ -262,8 +318,23 @@ fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
             "mpm" => format!("{:.2}", if r.mu_i { 1.0 } else { mc / mui }),
             _ => format!("{:.2}", if r.rolling.is_some() { 1.0 } else { cd_off / cd_on }),
         };
-        let vtk = if r.vtk && r.engine == "dem" { format!("yes ({:.0} ms each)", 1e3 * vtk_dem) } else { yes(r.vtk).to_string() };
-        println!("| {} | {} | {} | {} | {} | {} | {} | {} | {} |", r.id, r.engine, roll, yes(r.ledger), yes(r.wall_friction), yes(r.mu_i), r.snapshots, vtk, cost);
+        let vtk = if r.vtk && r.engine == "dem" {
+            format!("yes ({:.0} ms each)", 1e3 * vtk_dem)
+        } else {
+            yes(r.vtk).to_string()
+        };
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.id,
+            r.engine,
+            roll,
+            yes(r.ledger),
+            yes(r.wall_friction),
+            yes(r.mu_i),
+            r.snapshots,
+            vtk,
+            cost
+        );
     }
     println!(
         "\nAll on (process CPU time, one worker thread): DEM rolling + dashpot + ledger {:.3e} s/step ({grains} grains); MPM μ(I) {:.3e} s/step ({pts} points); CD rolling {:.3e} s/step (Siconos deposit 25×20). Wall friction is a coefficient of the same contact law (no separate path, no cost).",

@@ -277,7 +277,11 @@ fn parse_jobs(s: &str) -> Result<usize, String> {
 }
 
 fn project_of(pipeline: &Path) -> Project {
-    let root = pipeline.parent().filter(|p| !p.as_os_str().is_empty()).map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+    let root = pipeline
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
     Project::new(&root)
 }
 
@@ -313,13 +317,15 @@ pub fn main() -> i32 {
 pub fn run_cli(cli: Cli) -> i32 {
     let proj = project_of(&cli.pipeline);
     let shared_cache = match cli.cmd {
-        Cmd::Run { .. } | Cmd::Status { .. } | Cmd::Clean { .. } | Cmd::Plan { .. } | Cmd::Export { .. } => match cache_dir(cli.cache.clone()) {
-            Ok(c) => c,
-            Err(m) => {
-                eprintln!("error: {m}");
-                return 2;
+        Cmd::Run { .. } | Cmd::Status { .. } | Cmd::Clean { .. } | Cmd::Plan { .. } | Cmd::Export { .. } => {
+            match cache_dir(cli.cache.clone()) {
+                Ok(c) => c,
+                Err(m) => {
+                    eprintln!("error: {m}");
+                    return 2;
+                }
             }
-        },
+        }
         _ => None,
     };
     let proj = match &shared_cache {
@@ -327,17 +333,49 @@ pub fn run_cli(cli: Cli) -> i32 {
         None => proj,
     };
     match cli.cmd {
-        Cmd::Plan { stages, profile, json, estimate, timings, min_wall } => {
+        Cmd::Plan {
+            stages,
+            profile,
+            json,
+            estimate,
+            timings,
+            min_wall,
+        } => {
             if timings {
                 timings_cmd(&cli.pipeline, &proj, &stages, profile, json, min_wall)
             } else {
                 plan_cmd(&cli.pipeline, &proj, &stages, profile, json, estimate)
             }
         }
-        Cmd::Export { engine: ExportEngine::Snakemake, profile, stages, bin, threads, mem_mb } => {
-            export_snakemake(&cli.pipeline, &proj, shared_cache.as_deref(), &stages, profile, bin, threads, mem_mb)
-        }
-        Cmd::Run { stages, only, profile, force, dry_run, jobs, sets, quiet, explain, markers } => {
+        Cmd::Export {
+            engine: ExportEngine::Snakemake,
+            profile,
+            stages,
+            bin,
+            threads,
+            mem_mb,
+        } => export_snakemake(
+            &cli.pipeline,
+            &proj,
+            shared_cache.as_deref(),
+            &stages,
+            profile,
+            bin,
+            threads,
+            mem_mb,
+        ),
+        Cmd::Run {
+            stages,
+            only,
+            profile,
+            force,
+            dry_run,
+            jobs,
+            sets,
+            quiet,
+            explain,
+            markers,
+        } => {
             let sets = match parse_sets(&sets) {
                 Ok(s) => s,
                 Err(c) => return c,
@@ -365,7 +403,14 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
                 return 0;
             }
-            let opts = RunOptions { targets: stages, only, force, dry_run, jobs, quiet };
+            let opts = RunOptions {
+                targets: stages,
+                only,
+                force,
+                dry_run,
+                jobs,
+                quiet,
+            };
             match crate::pipeline::run::run(&p, &proj, &opts) {
                 Err(RunError::BadInput(m)) => {
                     eprintln!("error: {m}");
@@ -401,20 +446,36 @@ pub fn run_cli(cli: Cli) -> i32 {
                         let done = matches!(s.outcome, Outcome::Ran { .. } | Outcome::Cached);
                         if done && opts.targets.iter().any(|t| p.members(t).contains(&s.id.as_str())) {
                             let path = proj.reports.join(&p.profile).join(format!("{}.json", s.id));
-                            if let Ok(v) = std::fs::read(&path).map(|b| serde_json::from_slice::<serde_json::Value>(&b).unwrap_or_default()) {
+                            if let Ok(v) = std::fs::read(&path)
+                                .map(|b| serde_json::from_slice::<serde_json::Value>(&b).unwrap_or_default())
+                            {
                                 if let Some(sc) = v["scalars"].as_object() {
-                                    let line: Vec<String> = sc.iter().take(12).map(|(k, v)| format!("{k} = {}", v)).collect();
+                                    let line: Vec<String> =
+                                        sc.iter().take(12).map(|(k, v)| format!("{k} = {}", v)).collect();
                                     if !line.is_empty() {
                                         println!("{}: {}", s.id, line.join(", "));
                                     }
                                 }
                                 for c in v["claims"].as_array().into_iter().flatten() {
-                                    println!("  claim {}: paper {} ours {} ({})", c["id"].as_str().unwrap_or(""), c["paper"], c["ours"], if c["pass"].as_bool() == Some(true) { "pass" } else { "FAIL" });
+                                    println!(
+                                        "  claim {}: paper {} ours {} ({})",
+                                        c["id"].as_str().unwrap_or(""),
+                                        c["paper"],
+                                        c["ours"],
+                                        if c["pass"].as_bool() == Some(true) {
+                                            "pass"
+                                        } else {
+                                            "FAIL"
+                                        }
+                                    );
                                 }
                             }
                         }
                     }
-                    if let Some(Err(e)) = markers.as_ref().map(|dir| crate::pipeline::export::write_markers(dir, &p.profile, &summary)) {
+                    if let Some(Err(e)) = markers
+                        .as_ref()
+                        .map(|dir| crate::pipeline::export::write_markers(dir, &p.profile, &summary))
+                    {
                         eprintln!("error: {e}");
                         return 1;
                     }
@@ -444,7 +505,13 @@ pub fn run_cli(cli: Cli) -> i32 {
                 Ok(p) => {
                     for s in &p.stages {
                         let inputs: Vec<String> = s.inputs.iter().flat_map(|(_, v)| v.iter().cloned()).collect();
-                        println!("{:<28} {:<18} inputs: [{}]  {}", s.id, s.kind, inputs.join(", "), s.caption.clone().unwrap_or_default());
+                        println!(
+                            "{:<28} {:<18} inputs: [{}]  {}",
+                            s.id,
+                            s.kind,
+                            inputs.join(", "),
+                            s.caption.clone().unwrap_or_default()
+                        );
                     }
                     0
                 }
@@ -462,7 +529,14 @@ pub fn run_cli(cli: Cli) -> i32 {
             match load(&cli.pipeline, profile.name(), &sets) {
                 Ok(p) => match p.get(&id) {
                     Some(s) => {
-                        print!("# {} ({} v{}), profile {}\n{}", s.id, s.kind, s.version, p.profile, serde_yaml::to_string(&s.params).unwrap_or_default());
+                        print!(
+                            "# {} ({} v{}), profile {}\n{}",
+                            s.id,
+                            s.kind,
+                            s.version,
+                            p.profile,
+                            serde_yaml::to_string(&s.params).unwrap_or_default()
+                        );
                         0
                     }
                     None => {
@@ -478,10 +552,13 @@ pub fn run_cli(cli: Cli) -> i32 {
         }
         Cmd::Dag { format } => match load(&cli.pipeline, "quick", &[]) {
             Ok(p) => {
-                print!("{}", match format {
-                    DagFormat::Dot => crate::pipeline::dag::to_dot(&p),
-                    DagFormat::Mermaid => crate::pipeline::dag::to_mermaid(&p),
-                });
+                print!(
+                    "{}",
+                    match format {
+                        DagFormat::Dot => crate::pipeline::dag::to_dot(&p),
+                        DagFormat::Mermaid => crate::pipeline::dag::to_mermaid(&p),
+                    }
+                );
                 0
             }
             Err(d) => {
@@ -511,17 +588,47 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
-        Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => crate::stages::cd_stages::simulate_cd(&scene, &out, quiet),
-        Cmd::Simulate { scene, out, quiet } if crate::scene_mpm::is_mpm_scene(&scene) => crate::scene_mpm::simulate_mpm(&scene, &out, quiet),
+        Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => {
+            crate::stages::cd_stages::simulate_cd(&scene, &out, quiet)
+        }
+        Cmd::Simulate { scene, out, quiet } if crate::scene_mpm::is_mpm_scene(&scene) => {
+            crate::scene_mpm::simulate_mpm(&scene, &out, quiet)
+        }
         Cmd::Simulate { scene, out, quiet } => crate::scene::simulate(&scene, &out, quiet),
-        Cmd::Bench { engine: BenchEngine::LeaveOut, steps, .. } => match load(&cli.pipeline, "quick", &[]) {
+        Cmd::Bench {
+            engine: BenchEngine::LeaveOut,
+            steps,
+            ..
+        } => match load(&cli.pipeline, "quick", &[]) {
             Ok(p) => crate::bench_leave_out::run(&p, steps.unwrap_or(2000)),
             Err(d) => {
                 eprintln!("{d}");
                 2
             }
         },
-        Cmd::Bench { engine, steps, phases, threads, dt, case, repeat, svg, max_n } => bench(engine, steps, &BenchOpts { phases, threads, dt, case, repeat, svg, max_n }),
+        Cmd::Bench {
+            engine,
+            steps,
+            phases,
+            threads,
+            dt,
+            case,
+            repeat,
+            svg,
+            max_n,
+        } => bench(
+            engine,
+            steps,
+            &BenchOpts {
+                phases,
+                threads,
+                dt,
+                case,
+                repeat,
+                svg,
+                max_n,
+            },
+        ),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),
     }
 }
@@ -547,19 +654,37 @@ fn cache_dir(opt: Option<PathBuf>) -> Result<Option<PathBuf>, String> {
             return Err(format!("{from} {}: directory is not writable\n  {help}", dir.display()));
         }
     } else {
-        let parent = dir.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("/"));
+        let parent = dir
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("/"));
         if !parent.is_dir() {
-            return Err(format!("{from} {}: its parent directory {} does not exist\n  {help}", dir.display(), parent.display()));
+            return Err(format!(
+                "{from} {}: its parent directory {} does not exist\n  {help}",
+                dir.display(),
+                parent.display()
+            ));
         }
         if !writable(parent) {
-            return Err(format!("{from} {}: its parent directory {} is not writable\n  {help}", dir.display(), parent.display()));
+            return Err(format!(
+                "{from} {}: its parent directory {} is not writable\n  {help}",
+                dir.display(),
+                parent.display()
+            ));
         }
     }
     Ok(Some(dir))
 }
 
 /// `plan`: the stages in order with keys (text or JSON), or the paper budget.
-fn plan_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: ProfileArg, json: bool, estimate: bool) -> i32 {
+fn plan_cmd(
+    pipeline: &Path,
+    proj: &Project,
+    stages: &[String],
+    profile: ProfileArg,
+    json: bool,
+    estimate: bool,
+) -> i32 {
     let p = match load(pipeline, profile.name(), &[]) {
         Ok(p) => p,
         Err(d) => {
@@ -586,7 +711,10 @@ fn plan_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: Profile
     match crate::pipeline::plan::plan(&p, proj, stages) {
         Ok(st) => {
             if json {
-                println!("{}", serde_json::to_string_pretty(&crate::pipeline::plan::to_json(&p, proj, &st)).unwrap_or_default());
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&crate::pipeline::plan::to_json(&p, proj, &st)).unwrap_or_default()
+                );
             } else {
                 print!("{}", crate::pipeline::plan::to_text(&st));
             }
@@ -600,7 +728,14 @@ fn plan_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: Profile
 }
 
 /// `plan --timings`: the run records of the plan's stages (see `pipeline::timings`).
-fn timings_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: ProfileArg, json: bool, min_wall: f64) -> i32 {
+fn timings_cmd(
+    pipeline: &Path,
+    proj: &Project,
+    stages: &[String],
+    profile: ProfileArg,
+    json: bool,
+    min_wall: f64,
+) -> i32 {
     let p = match load(pipeline, profile.name(), &[]) {
         Ok(p) => p,
         Err(d) => {
@@ -616,7 +751,10 @@ fn timings_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: Prof
     match crate::pipeline::timings::timings(&p, proj, stages) {
         Ok(t) => {
             if json {
-                println!("{}", serde_json::to_string_pretty(&t.to_json(cores)).unwrap_or_default());
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&t.to_json(cores)).unwrap_or_default()
+                );
             } else {
                 print!("{}", t.to_text(cores, min_wall));
             }
@@ -631,7 +769,16 @@ fn timings_cmd(pipeline: &Path, proj: &Project, stages: &[String], profile: Prof
 
 /// `export snakemake`: the Snakefile of the plan on stdout.
 #[allow(clippy::too_many_arguments)]
-fn export_snakemake(pipeline: &Path, proj: &Project, cache: Option<&Path>, stages: &[String], profile: ProfileArg, bin: Option<String>, threads: usize, mem_mb: u64) -> i32 {
+fn export_snakemake(
+    pipeline: &Path,
+    proj: &Project,
+    cache: Option<&Path>,
+    stages: &[String],
+    profile: ProfileArg,
+    bin: Option<String>,
+    threads: usize,
+    mem_mb: u64,
+) -> i32 {
     use crate::pipeline::export::{ExportOptions, measured_from_record, snakefile};
     let p = match load(pipeline, profile.name(), &[]) {
         Ok(p) => p,
@@ -647,7 +794,11 @@ fn export_snakemake(pipeline: &Path, proj: &Project, cache: Option<&Path>, stage
             return 2;
         }
     };
-    let abs = |q: &Path| std::fs::canonicalize(q).or_else(|_| std::path::absolute(q)).unwrap_or_else(|_| q.to_path_buf());
+    let abs = |q: &Path| {
+        std::fs::canonicalize(q)
+            .or_else(|_| std::path::absolute(q))
+            .unwrap_or_else(|_| q.to_path_buf())
+    };
     let bin = match bin {
         Some(b) => b,
         None => match std::env::current_exe() {
@@ -657,10 +808,15 @@ fn export_snakemake(pipeline: &Path, proj: &Project, cache: Option<&Path>, stage
     };
     // Wall times: this profile's run records, else (for the paper profile) the budget's
     // estimate scaled from the quick records.
-    let estimated = if profile == ProfileArg::Paper { crate::pipeline::estimate::estimate(&p, proj, stages).ok() } else { None };
+    let estimated = if profile == ProfileArg::Paper {
+        crate::pipeline::estimate::estimate(&p, proj, stages).ok()
+    } else {
+        None
+    };
     let mut measured = std::collections::BTreeMap::new();
     for s in &plan {
-        let m = measured_from_record(&proj.report_dir(&p.profile), &s.id).or_else(|| estimated.as_ref().and_then(|e| e.measured(&s.id)));
+        let m = measured_from_record(&proj.report_dir(&p.profile), &s.id)
+            .or_else(|| estimated.as_ref().and_then(|e| e.measured(&s.id)));
         if let Some(m) = m {
             measured.insert(s.id.clone(), m);
         }
@@ -673,7 +829,18 @@ fn export_snakemake(pipeline: &Path, proj: &Project, cache: Option<&Path>, stage
         cache: cache.map(Path::to_path_buf),
         threads,
         mem_mb,
-        peak_mb: plan.iter().filter_map(|s| Some((s.id.clone(), crate::pipeline::export::peak_from_markers(&proj.root.join(crate::pipeline::export::marker_dir(&p.profile)), &s.id)?))).collect(),
+        peak_mb: plan
+            .iter()
+            .filter_map(|s| {
+                Some((
+                    s.id.clone(),
+                    crate::pipeline::export::peak_from_markers(
+                        &proj.root.join(crate::pipeline::export::marker_dir(&p.profile)),
+                        &s.id,
+                    )?,
+                ))
+            })
+            .collect(),
         default_runtime_min: 720,
         measured,
     };
@@ -707,20 +874,35 @@ fn clean(pipeline: &Path, proj: &Project, reports: bool, profile: Option<&str>) 
             let dir = proj.report_dir(p);
             match crate::pipeline::publish::clean_reports(&dir) {
                 Ok(r) if r.is_empty() => {}
-                Ok(r) => println!("removed {} published file(s) of profile `{p}` in {}", r.len(), dir.display()),
+                Ok(r) => println!(
+                    "removed {} published file(s) of profile `{p}` in {}",
+                    r.len(),
+                    dir.display()
+                ),
                 Err(e) => {
                     eprintln!("error: {e}");
                     code = 1;
                 }
             }
             if let Ok(rd) = std::fs::read_dir(&dir) {
-                let left: Vec<String> = rd.flatten().map(|e| e.file_name().to_string_lossy().to_string()).collect();
+                let left: Vec<String> = rd
+                    .flatten()
+                    .map(|e| e.file_name().to_string_lossy().to_string())
+                    .collect();
                 if !left.is_empty() {
-                    println!("kept {} file(s) in {} that granrepro did not publish: {}", left.len(), dir.display(), left.join(", "));
+                    println!(
+                        "kept {} file(s) in {} that granrepro did not publish: {}",
+                        left.len(),
+                        dir.display(),
+                        left.join(", ")
+                    );
                 }
             }
         }
-        if profile.is_none() && std::fs::read_dir(&proj.reports).is_ok_and(|mut r| r.next().is_none()) && std::fs::remove_dir(&proj.reports).is_ok() {
+        if profile.is_none()
+            && std::fs::read_dir(&proj.reports).is_ok_and(|mut r| r.next().is_none())
+            && std::fs::remove_dir(&proj.reports).is_ok()
+        {
             println!("removed the empty {}", proj.reports.display());
         }
     }
@@ -742,11 +924,26 @@ pub struct BenchOpts {
 fn print_phase_table(title: &str, rows: &[(&str, f64)], steps: u64) {
     let total: f64 = rows.iter().map(|r| r.1).sum();
     println!("{title}");
-    println!("  {:<14} {:>10} {:>12} {:>7}", "section", "time [s]", "per step [us]", "%total");
+    println!(
+        "  {:<14} {:>10} {:>12} {:>7}",
+        "section", "time [s]", "per step [us]", "%total"
+    );
     for (name, t) in rows {
-        println!("  {:<14} {:>10.4} {:>12.3} {:>6.1}%", name, t, 1e6 * t / steps.max(1) as f64, 100.0 * t / total.max(1e-300));
+        println!(
+            "  {:<14} {:>10.4} {:>12.3} {:>6.1}%",
+            name,
+            t,
+            1e6 * t / steps.max(1) as f64,
+            100.0 * t / total.max(1e-300)
+        );
     }
-    println!("  {:<14} {:>10.4} {:>12.3} {:>6.1}%", "total", total, 1e6 * total / steps.max(1) as f64, 100.0);
+    println!(
+        "  {:<14} {:>10.4} {:>12.3} {:>6.1}%",
+        "total",
+        total,
+        1e6 * total / steps.max(1) as f64,
+        100.0
+    );
 }
 
 fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
@@ -765,13 +962,20 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
             use crate::dem::bench::{BenchCase, run};
             let steps = steps.unwrap_or(20_000);
             let cases: Vec<BenchCase> = if o.case.is_empty() {
-                vec![BenchCase::NoRollingNoLedger, BenchCase::RollingNoLedger, BenchCase::Full]
+                vec![
+                    BenchCase::NoRollingNoLedger,
+                    BenchCase::RollingNoLedger,
+                    BenchCase::Full,
+                ]
             } else {
-                o.case.iter().map(|c| match c {
-                    BenchCaseArg::Full => BenchCase::Full,
-                    BenchCaseArg::RollingNoLedger => BenchCase::RollingNoLedger,
-                    BenchCaseArg::NoRolling => BenchCase::NoRollingNoLedger,
-                }).collect()
+                o.case
+                    .iter()
+                    .map(|c| match c {
+                        BenchCaseArg::Full => BenchCase::Full,
+                        BenchCaseArg::RollingNoLedger => BenchCase::RollingNoLedger,
+                        BenchCaseArg::NoRolling => BenchCase::NoRollingNoLedger,
+                    })
+                    .collect()
             };
             for case in cases {
                 for &t in &threads {
@@ -807,9 +1011,25 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
                         let tm = &r.timers;
                         let other = (r.wall_s - tm.total()).max(0.0);
                         print_phase_table(
-                            &format!("dem-column {} | {} thread(s) | {} grains x {} steps, dt = {:.2e} s | {:.3} M particle-steps/s", case.name(), r.threads, r.grains, r.steps, r.dt, r.particle_steps_per_s / 1e6),
-                            &[("neighbour", tm.neighbors), ("contact pairs", tm.contacts), ("force gather", tm.gather), ("walls", tm.walls),
-                              ("rolling solve", tm.rolling), ("integrate", tm.integrate), ("ledger", tm.ledger), ("other", other + tm.watchdog)],
+                            &format!(
+                                "dem-column {} | {} thread(s) | {} grains x {} steps, dt = {:.2e} s | {:.3} M particle-steps/s",
+                                case.name(),
+                                r.threads,
+                                r.grains,
+                                r.steps,
+                                r.dt,
+                                r.particle_steps_per_s / 1e6
+                            ),
+                            &[
+                                ("neighbour", tm.neighbors),
+                                ("contact pairs", tm.contacts),
+                                ("force gather", tm.gather),
+                                ("walls", tm.walls),
+                                ("rolling solve", tm.rolling),
+                                ("integrate", tm.integrate),
+                                ("ledger", tm.ledger),
+                                ("other", other + tm.watchdog),
+                            ],
                             r.steps,
                         );
                     }
@@ -866,9 +1086,22 @@ fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
                     let ph = &r.phases;
                     let other = (r.wall_s - ph.total().as_secs_f64()).max(0.0);
                     print_phase_table(
-                        &format!("mpm-column a1-16ppc-2mm-mc | {} thread(s) | {} points x {} steps | best of {}: {:.3} M point-steps/s", r.threads, r.points, r.steps, o.repeat.max(1), r.point_steps_per_s / 1e6),
-                        &[("P2G", r.p2g_s()), ("grid update", ph.grid_update.as_secs_f64()), ("stress", r.stress_s()), ("G2P", r.g2p_s()),
-                          ("relocation", ph.relocate.as_secs_f64()), ("other", other)],
+                        &format!(
+                            "mpm-column a1-16ppc-2mm-mc | {} thread(s) | {} points x {} steps | best of {}: {:.3} M point-steps/s",
+                            r.threads,
+                            r.points,
+                            r.steps,
+                            o.repeat.max(1),
+                            r.point_steps_per_s / 1e6
+                        ),
+                        &[
+                            ("P2G", r.p2g_s()),
+                            ("grid update", ph.grid_update.as_secs_f64()),
+                            ("stress", r.stress_s()),
+                            ("G2P", r.g2p_s()),
+                            ("relocation", ph.relocate.as_secs_f64()),
+                            ("other", other),
+                        ],
                         r.steps,
                     );
                 }
@@ -892,8 +1125,17 @@ fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
         }
     };
     let multi = o.threads.iter().copied().max().unwrap_or(all).max(2);
-    println!("dem-crossover | rolling + ledger | best of {} | µs per step", o.repeat.max(1));
-    println!("  {:>6} {:>10} {:>10} {:>8}", "grains", "1 thread", format!("{multi} threads"), "speed-up");
+    println!(
+        "dem-crossover | rolling + ledger | best of {} | µs per step",
+        o.repeat.max(1)
+    );
+    println!(
+        "  {:>6} {:>10} {:>10} {:>8}",
+        "grains",
+        "1 thread",
+        format!("{multi} threads"),
+        "speed-up"
+    );
     for n in [250usize, 500, 750, 1000, 1500, 2000, 2924, 5848] {
         let st = steps.unwrap_or((2_000_000 / n as u64).clamp(200, 5000));
         let (mut t1, mut t2) = (f64::INFINITY, f64::INFINITY);
@@ -908,7 +1150,10 @@ fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
                 }
             }
         }
-        println!("{}", serde_json::json!({"bench": "dem-crossover", "n": n, "steps": st, "s_per_step_1": t1, "threads": multi, "s_per_step_multi": t2}));
+        println!(
+            "{}",
+            serde_json::json!({"bench": "dem-crossover", "n": n, "steps": st, "s_per_step_1": t1, "threads": multi, "s_per_step_multi": t2})
+        );
         println!("  {:>6} {:>10.1} {:>10.1} {:>7.2}x", n, 1e6 * t1, 1e6 * t2, t1 / t2);
     }
     0
@@ -918,7 +1163,10 @@ fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
 fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
     use crate::report::plot::{Chart, Series, Style};
     let threads = o.threads.first().copied().unwrap_or(1).max(1);
-    let sizes: Vec<usize> = [1_000usize, 3_000, 10_000, 30_000, 100_000].into_iter().filter(|&n| n <= o.max_n).collect();
+    let sizes: Vec<usize> = [1_000usize, 3_000, 10_000, 30_000, 100_000]
+        .into_iter()
+        .filter(|&n| n <= o.max_n)
+        .collect();
     // work per size ~ n × steps: fewer steps for the big ones, at least 20
     let steps_for = |n: usize, base: u64| steps.unwrap_or((base * 10_000 / n as u64).clamp(20, base * 10));
     let best = |f: &mut dyn FnMut() -> f64| (0..o.repeat.max(1)).map(|_| f()).fold(f64::INFINITY, f64::min);
@@ -938,7 +1186,10 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
         let mut err = None;
         let s = best(&mut || match crate::dem::bench::scaling_point(&base, n, threads, st) {
             Ok(p) => {
-                extra = format!("{:.2} pairs, {:.2} contacts per grain", p.pairs_per_grain, p.contacts_per_grain);
+                extra = format!(
+                    "{:.2} pairs, {:.2} contacts per grain",
+                    p.pairs_per_grain, p.contacts_per_grain
+                );
                 p.s_per_step
             }
             Err(e) => {
@@ -950,7 +1201,10 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
             eprintln!("error: bench scaling (dem, {n}): {e}");
             return 1;
         }
-        println!("{}", serde_json::json!({"bench": "scaling", "engine": "dem", "n": n, "threads": threads, "steps": st, "s_per_step": s, "note": extra}));
+        println!(
+            "{}",
+            serde_json::json!({"bench": "scaling", "engine": "dem", "n": n, "threads": threads, "steps": st, "s_per_step": s, "note": extra})
+        );
         rows.push(("DEM", n, s, extra));
     }
     // MPM
@@ -962,7 +1216,10 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
             pts = p;
             s
         });
-        println!("{}", serde_json::json!({"bench": "scaling", "engine": "mpm", "n": pts, "threads": threads, "steps": st, "s_per_step": s}));
+        println!(
+            "{}",
+            serde_json::json!({"bench": "scaling", "engine": "mpm", "n": pts, "threads": threads, "steps": st, "s_per_step": s})
+        );
         rows.push(("MPM", pts, s, String::new()));
     }
     // CD: the Siconos deposit, ncol × nrow ≈ n with ncol/nrow = 1.6 as its 40 × 25 case
@@ -976,7 +1233,11 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
         let s = best(&mut || match crate::cd::bench::run(ncol, nrow, threads, st) {
             Ok(r) => {
                 pts = r.particles;
-                extra = format!("{:.0} contacts, {:.1} NLGS sweeps per step", r.contacts, r.iterations as f64 / r.steps.max(1) as f64);
+                extra = format!(
+                    "{:.0} contacts, {:.1} NLGS sweeps per step",
+                    r.contacts,
+                    r.iterations as f64 / r.steps.max(1) as f64
+                );
                 r.wall_s / r.steps.max(1) as f64
             }
             Err(e) => {
@@ -988,28 +1249,54 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
             eprintln!("error: bench scaling (cd, {n}): {e}");
             return 1;
         }
-        println!("{}", serde_json::json!({"bench": "scaling", "engine": "cd", "n": pts, "threads": threads, "steps": st, "s_per_step": s, "note": extra}));
+        println!(
+            "{}",
+            serde_json::json!({"bench": "scaling", "engine": "cd", "n": pts, "threads": threads, "steps": st, "s_per_step": s, "note": extra})
+        );
         rows.push(("CD", pts, s, extra));
     }
     println!("cost growth, {threads} thread(s): wall time per step");
-    println!("  {:<5} {:>8} {:>12} {:>14} {:>8}  {}", "engine", "n", "ms/step", "ns/(n·step)", "vs 1e3", "");
+    println!(
+        "  {:<5} {:>8} {:>12} {:>14} {:>8}  {}",
+        "engine", "n", "ms/step", "ns/(n·step)", "vs 1e3", ""
+    );
     for eng in ["DEM", "MPM", "CD"] {
         let r: Vec<_> = rows.iter().filter(|r| r.0 == eng).collect();
         let Some(first) = r.first() else { continue };
         let unit0 = first.2 / first.1 as f64;
         for x in &r {
             let unit = x.2 / x.1 as f64;
-            println!("  {:<5} {:>8} {:>12.3} {:>14.1} {:>8.2}  {}", x.0, x.1, 1e3 * x.2, 1e9 * unit, unit / unit0, x.3);
+            println!(
+                "  {:<5} {:>8} {:>12.3} {:>14.1} {:>8.2}  {}",
+                x.0,
+                x.1,
+                1e3 * x.2,
+                1e9 * unit,
+                unit / unit0,
+                x.3
+            );
         }
     }
     if let Some(path) = &o.svg {
         let series: Vec<Series> = ["DEM", "MPM", "CD"]
             .iter()
             .enumerate()
-            .map(|(c, eng)| Series::new(format!("{eng} (measured)"), Style::LinePoints, rows.iter().filter(|r| r.0 == *eng).map(|r| (r.1 as f64, r.2)).collect(), c))
+            .map(|(c, eng)| {
+                Series::new(
+                    format!("{eng} (measured)"),
+                    Style::LinePoints,
+                    rows.iter().filter(|r| r.0 == *eng).map(|r| (r.1 as f64, r.2)).collect(),
+                    c,
+                )
+            })
             .chain(rows.iter().find(|r| r.0 == "DEM").map(|r| {
                 let k = r.2 / r.1 as f64;
-                Series::new("linear in n (through DEM at 1e3)", Style::Dashed, sizes.iter().map(|&n| (n as f64, k * n as f64)).collect(), 7)
+                Series::new(
+                    "linear in n (through DEM at 1e3)",
+                    Style::Dashed,
+                    sizes.iter().map(|&n| (n as f64, k * n as f64)).collect(),
+                    7,
+                )
             }))
             .collect();
         let chart = Chart::log_log(
@@ -1019,7 +1306,11 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
             "wall time per step [s]",
             series,
         );
-        match chart.to_svg().map_err(|e| e.to_string()).and_then(|svg| std::fs::write(path, svg).map_err(|e| e.to_string())) {
+        match chart
+            .to_svg()
+            .map_err(|e| e.to_string())
+            .and_then(|svg| std::fs::write(path, svg).map_err(|e| e.to_string()))
+        {
             Ok(()) => println!("figure: {}", path.display()),
             Err(e) => {
                 eprintln!("error: {}: {e}", path.display());

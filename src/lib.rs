@@ -10,12 +10,12 @@
 
 pub mod analysis;
 pub mod bench_leave_out;
+pub mod cd;
 pub mod cli;
+pub mod dem;
 pub mod fit;
 pub mod math;
 pub mod mpm;
-pub mod dem;
-pub mod cd;
 pub mod pipeline;
 pub mod report;
 pub mod sample;

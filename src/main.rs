@@ -2,7 +2,12 @@ fn main() {
     // A closed stdout (e.g. `granrepro dag | head`) ends the program quietly; any other
     // panic is a bug: report it as such, exit 1.
     std::panic::set_hook(Box::new(|info| {
-        let msg = info.payload().downcast_ref::<String>().cloned().or_else(|| info.payload().downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default();
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| info.payload().downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_default();
         if !msg.contains("Broken pipe") {
             eprintln!("internal error (please report): {info}");
         }

@@ -43,7 +43,11 @@ fn one() -> f64 {
 }
 
 fn nonnull(v: &serde_yaml::Value) -> serde_yaml::Value {
-    if v.is_null() { serde_yaml::Value::Mapping(Default::default()) } else { v.clone() }
+    if v.is_null() {
+        serde_yaml::Value::Mapping(Default::default())
+    } else {
+        v.clone()
+    }
 }
 
 /// Marker file in a directory `simulate` made: `--out` may reuse it.
@@ -70,8 +74,12 @@ fn check_out(out: &Path) -> Result<(), String> {
 /// The scene key of a generated stage's parameter (`stages[column].params.dem.kn` →
 /// `dem.kn`), so problems point at the scene file.
 fn scene_key(diag_key: &str) -> String {
-    let Some(rest) = diag_key.strip_prefix("stages[") else { return diag_key.to_string() };
-    let Some((stage, rest)) = rest.split_once(']') else { return diag_key.to_string() };
+    let Some(rest) = diag_key.strip_prefix("stages[") else {
+        return diag_key.to_string();
+    };
+    let Some((stage, rest)) = rest.split_once(']') else {
+        return diag_key.to_string();
+    };
     let param = rest.strip_prefix(".params.").unwrap_or(rest.trim_start_matches('.'));
     let top = param.split('.').next().unwrap_or("");
     match (stage, top) {
@@ -92,7 +100,9 @@ fn report_scene_problems(scene: &Path, text: &str, d: &crate::pipeline::Diagnost
             continue;
         }
         let parts: Vec<&str> = key.split('.').collect();
-        let line = crate::pipeline::diag::locate(text, &parts, 1).map(|l| format!(":{l}")).unwrap_or_default();
+        let line = crate::pipeline::diag::locate(text, &parts, 1)
+            .map(|l| format!(":{l}"))
+            .unwrap_or_default();
         eprintln!("error: {}{line}: {key}: {}", scene.display(), x.message);
         if !x.help.is_empty() {
             eprintln!("  help: {}", x.help);
@@ -109,8 +119,13 @@ fn parse_scene(scene: &Path, text: &str) -> Result<SceneFile, String> {
         format!("{}{line}: YAML syntax error: {e}\n  help: {KEYS}", scene.display())
     })?;
     if let Some((key, value, allowed)) = crate::pipeline::check::bad_numbers(&v).into_iter().next() {
-        let line = crate::pipeline::diag::locate(text, &key.split('.').collect::<Vec<_>>(), 1).map(|l| format!(":{l}")).unwrap_or_default();
-        return Err(format!("{}{line}: {key}: value {value} is not allowed\n  help: {allowed}", scene.display()));
+        let line = crate::pipeline::diag::locate(text, &key.split('.').collect::<Vec<_>>(), 1)
+            .map(|l| format!(":{l}"))
+            .unwrap_or_default();
+        return Err(format!(
+            "{}{line}: {key}: value {value} is not allowed\n  help: {allowed}",
+            scene.display()
+        ));
     }
     serde_path_to_error::deserialize::<_, SceneFile>(v).map_err(|e| {
         let inner = e.inner().to_string();
@@ -118,7 +133,9 @@ fn parse_scene(scene: &Path, text: &str) -> Result<SceneFile, String> {
             Some(f) if inner.starts_with("unknown field") => f.to_string(),
             _ => e.path().to_string(),
         };
-        let line = crate::pipeline::diag::locate(text, &key.split('.').collect::<Vec<_>>(), 1).map(|l| format!(":{l}")).unwrap_or_default();
+        let line = crate::pipeline::diag::locate(text, &key.split('.').collect::<Vec<_>>(), 1)
+            .map(|l| format!(":{l}"))
+            .unwrap_or_default();
         format!("{}{line}: {key}: {inner}\n  help: {KEYS}", scene.display())
     })
 }
@@ -139,11 +156,19 @@ fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
     let stages = vec![
         mk("psd", "psd", nonnull(&sf.psd), None),
         mk("column", "dem-column-prep", prep, Some(("psd", "psd"))),
-        mk("collapse", "dem-collapse", serde_yaml::Value::Mapping(coll), Some(("column", "column"))),
+        mk(
+            "collapse",
+            "dem-collapse",
+            serde_yaml::Value::Mapping(coll),
+            Some(("column", "column")),
+        ),
     ];
     let mut doc = serde_yaml::Mapping::new();
     doc.insert("version".into(), 1.into());
-    doc.insert("description".into(), format!("generated from {} by granrepro simulate", scene.display()).into());
+    doc.insert(
+        "description".into(),
+        format!("generated from {} by granrepro simulate", scene.display()).into(),
+    );
     doc.insert("stages".into(), serde_yaml::Value::Sequence(stages));
     serde_yaml::Value::Mapping(doc)
 }
@@ -177,18 +202,33 @@ pub fn simulate(scene: &Path, out: &Path, quiet: bool) -> i32 {
 /// faster grains: r = 6 needs a smaller step than PSD-COL).
 fn preflight_scene_sizes(scene: &Path, text: &str, sf: &SceneFile) -> Result<(), String> {
     let num = |k: &str| sf.psd.get(k).and_then(|v| v.as_f64());
-    let (Some(dmin), Some(dmax)) = (num("d_min_mm"), num("d_max_mm")) else { return Ok(()) };
-    let Ok(dem) = serde_yaml::from_value::<crate::dem::DemParams>(nonnull(&sf.dem)) else { return Ok(()) };
+    let (Some(dmin), Some(dmax)) = (num("d_min_mm"), num("d_max_mm")) else {
+        return Ok(());
+    };
+    let Ok(dem) = serde_yaml::from_value::<crate::dem::DemParams>(nonnull(&sf.dem)) else {
+        return Ok(());
+    };
     if !(dmin > 0.0 && dmax >= dmin) || !dem.validate().is_empty() || !(sf.stiffness_factor > 0.0) {
         return Ok(()); // reported by the stage validation
     }
     let run = dem.softened(sf.stiffness_factor);
-    let sizes = crate::dem::SizeClasses { r_min: 0.5e-3 * dmin, r_mean: 0.25e-3 * (dmin + dmax), r_max: 0.5e-3 * dmax };
+    let sizes = crate::dem::SizeClasses {
+        r_min: 0.5e-3 * dmin,
+        r_mean: 0.25e-3 * (dmin + dmax),
+        r_max: 0.5e-3 * dmax,
+    };
     match crate::dem::preflight(&run, sizes, true, run.dt) {
         Ok(_) => Ok(()),
         Err(e) => {
-            let line = crate::pipeline::diag::locate(text, &["dem", "dt"], 1).map(|l| format!(":{l}")).unwrap_or_default();
-            Err(format!("{}{line}: dem.dt: {:.3e} s (stiffness_factor {}) is unstable for this scene's grains (d_min = {dmin} mm): {e}\n  help: `granrepro run --explain` prints every time scale", scene.display(), run.dt, sf.stiffness_factor))
+            let line = crate::pipeline::diag::locate(text, &["dem", "dt"], 1)
+                .map(|l| format!(":{l}"))
+                .unwrap_or_default();
+            Err(format!(
+                "{}{line}: dem.dt: {:.3e} s (stiffness_factor {}) is unstable for this scene's grains (d_min = {dmin} mm): {e}\n  help: `granrepro run --explain` prints every time scale",
+                scene.display(),
+                run.dt,
+                sf.stiffness_factor
+            ))
         }
     }
 }
@@ -232,7 +272,15 @@ pub fn run_generated(scene: &Path, text: &str, generated: &serde_yaml::Value, ou
         eprintln!("error: {e}");
         return 1;
     }
-    match crate::pipeline::run::run(&p, &Project::new(out), &RunOptions { jobs: 1, quiet, ..Default::default() }) {
+    match crate::pipeline::run::run(
+        &p,
+        &Project::new(out),
+        &RunOptions {
+            jobs: 1,
+            quiet,
+            ..Default::default()
+        },
+    ) {
         Ok(s) if !s.failed() => {
             println!("outputs in {}", out.join("reports").join("quick").display());
             0

@@ -55,14 +55,22 @@ pub fn simulate_mpm(scene: &Path, out: &Path, quiet: bool) -> i32 {
         }
     };
     if let Some((key, value, allowed)) = crate::pipeline::check::bad_numbers(&v).into_iter().next() {
-        let line = crate::pipeline::diag::locate(&text, &key.split('.').collect::<Vec<_>>(), 1).map(|l| format!(":{l}")).unwrap_or_default();
-        eprintln!("error: {}{line}: {key}: value {value} is not allowed\n  help: {allowed}", scene.display());
+        let line = crate::pipeline::diag::locate(&text, &key.split('.').collect::<Vec<_>>(), 1)
+            .map(|l| format!(":{l}"))
+            .unwrap_or_default();
+        eprintln!(
+            "error: {}{line}: {key}: value {value} is not allowed\n  help: {allowed}",
+            scene.display()
+        );
         return 2;
     }
     let sf: MpmSceneFile = match serde_yaml::from_value(v) {
         Ok(s) => s,
         Err(e) => {
-            eprintln!("error: {}: {e}\n  help: MPM scene keys: engine, mpm, a, area_m2, run", scene.display());
+            eprintln!(
+                "error: {}: {e}\n  help: MPM scene keys: engine, mpm, a, area_m2, run",
+                scene.display()
+            );
             return 2;
         }
     };
@@ -80,10 +88,18 @@ pub fn simulate_mpm(scene: &Path, out: &Path, quiet: bool) -> i32 {
         m.insert("run".into(), sf.run.clone());
     }
     m.insert("use_dem_calibration".into(), false.into());
-    let stages = vec![crate::scene::stage_entry("collapse", "mpm-collapse", serde_yaml::Value::Mapping(m), None)];
+    let stages = vec![crate::scene::stage_entry(
+        "collapse",
+        "mpm-collapse",
+        serde_yaml::Value::Mapping(m),
+        None,
+    )];
     let mut doc = serde_yaml::Mapping::new();
     doc.insert("version".into(), 1.into());
-    doc.insert("description".into(), format!("generated from {} by granrepro simulate (MPM)", scene.display()).into());
+    doc.insert(
+        "description".into(),
+        format!("generated from {} by granrepro simulate (MPM)", scene.display()).into(),
+    );
     doc.insert("stages".into(), serde_yaml::Value::Sequence(stages));
     crate::scene::run_generated(scene, &text, &serde_yaml::Value::Mapping(doc), out, quiet)
 }

@@ -24,15 +24,26 @@ pub struct Checker {
 impl Checker {
     /// A checker whose keys are prefixed with `prefix.` (empty for none).
     pub fn new(prefix: &str) -> Self {
-        Self { prefix: prefix.to_string(), issues: Vec::new() }
+        Self {
+            prefix: prefix.to_string(),
+            issues: Vec::new(),
+        }
     }
     fn key(&self, k: &str) -> String {
-        if self.prefix.is_empty() { k.to_string() } else { format!("{}.{}", self.prefix, k) }
+        if self.prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{}.{}", self.prefix, k)
+        }
     }
     /// Record an issue unconditionally.
     pub fn fail(&mut self, key: &str, value: impl std::fmt::Display, allowed: &str) {
         let key = self.key(key);
-        self.issues.push(Issue { key, value: value.to_string(), allowed: allowed.to_string() });
+        self.issues.push(Issue {
+            key,
+            value: value.to_string(),
+            allowed: allowed.to_string(),
+        });
     }
     /// `v` must be a finite number (not NaN or ±inf); records an issue and returns false
     /// otherwise.
@@ -44,23 +55,33 @@ impl Checker {
     }
     /// `v` must be finite and > 0.
     pub fn positive(&mut self, key: &str, v: f64) {
-        if self.finite(key, v) && v <= 0.0 { self.fail(key, v, "a finite number > 0"); }
+        if self.finite(key, v) && v <= 0.0 {
+            self.fail(key, v, "a finite number > 0");
+        }
     }
     /// `v` must be finite and ≥ 0.
     pub fn non_negative(&mut self, key: &str, v: f64) {
-        if self.finite(key, v) && v < 0.0 { self.fail(key, v, "a finite number >= 0"); }
+        if self.finite(key, v) && v < 0.0 {
+            self.fail(key, v, "a finite number >= 0");
+        }
     }
     /// `v` must lie in the closed interval [lo, hi].
     pub fn in_closed(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
-        if self.finite(key, v) && !(v >= lo && v <= hi) { self.fail(key, v, &format!("in [{lo}, {hi}]")); }
+        if self.finite(key, v) && !(v >= lo && v <= hi) {
+            self.fail(key, v, &format!("in [{lo}, {hi}]"));
+        }
     }
     /// `v` must lie in the half-open interval (lo, hi].
     pub fn in_open_closed(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
-        if self.finite(key, v) && !(v > lo && v <= hi) { self.fail(key, v, &format!("in ({lo}, {hi}]")); }
+        if self.finite(key, v) && !(v > lo && v <= hi) {
+            self.fail(key, v, &format!("in ({lo}, {hi}]"));
+        }
     }
     /// `v` must lie in the open interval (lo, hi).
     pub fn in_open(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
-        if self.finite(key, v) && !(v > lo && v < hi) { self.fail(key, v, &format!("in ({lo}, {hi})")); }
+        if self.finite(key, v) && !(v > lo && v < hi) {
+            self.fail(key, v, &format!("in ({lo}, {hi})"));
+        }
     }
     /// A physical quantity: finite and within the plausible range [lo, hi] of `what`
     /// (with its unit), e.g. `plausible("density", rho, 100.0, 2.5e4, "density [kg/m³]")`.
@@ -73,10 +94,14 @@ impl Checker {
     }
     /// Generic condition with a custom message.
     pub fn check(&mut self, ok: bool, key: &str, value: impl std::fmt::Display, allowed: &str) {
-        if !ok { self.fail(key, value, allowed); }
+        if !ok {
+            self.fail(key, value, allowed);
+        }
     }
     /// Merge the issues of a nested checker.
-    pub fn extend(&mut self, other: Checker) { self.issues.extend(other.issues); }
+    pub fn extend(&mut self, other: Checker) {
+        self.issues.extend(other.issues);
+    }
 }
 
 #[cfg(test)]

@@ -23,7 +23,10 @@ pub fn polydata(x: &[f64], y: &[f64], fields: &[(&str, Field)]) -> String {
     assert_eq!(y.len(), n, "vtk: x and y differ in length");
     let mut s = String::with_capacity(64 * n * (1 + fields.len()));
     s.push_str("<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">\n<PolyData>\n");
-    let _ = writeln!(s, "<Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">");
+    let _ = writeln!(
+        s,
+        "<Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
+    );
     s.push_str("<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
     for i in 0..n {
         let _ = writeln!(s, "{:e} {:e} 0", x[i], y[i]);
@@ -48,14 +51,23 @@ pub fn polydata(x: &[f64], y: &[f64], fields: &[(&str, Field)]) -> String {
             }
             Field::Vector(a, b) => {
                 assert!(a.len() == n && b.len() == n, "vtk: field {name} has the wrong length");
-                let _ = writeln!(s, "<DataArray type=\"Float64\" Name=\"{name}\" NumberOfComponents=\"3\" format=\"ascii\">");
+                let _ = writeln!(
+                    s,
+                    "<DataArray type=\"Float64\" Name=\"{name}\" NumberOfComponents=\"3\" format=\"ascii\">"
+                );
                 for i in 0..n {
                     let _ = writeln!(s, "{:e} {:e} 0", a[i], b[i]);
                 }
             }
             Field::SymTensor(xx, yy, xy) => {
-                assert!(xx.len() == n && yy.len() == n && xy.len() == n, "vtk: field {name} has the wrong length");
-                let _ = writeln!(s, "<DataArray type=\"Float64\" Name=\"{name}\" NumberOfComponents=\"6\" format=\"ascii\">");
+                assert!(
+                    xx.len() == n && yy.len() == n && xy.len() == n,
+                    "vtk: field {name} has the wrong length"
+                );
+                let _ = writeln!(
+                    s,
+                    "<DataArray type=\"Float64\" Name=\"{name}\" NumberOfComponents=\"6\" format=\"ascii\">"
+                );
                 for i in 0..n {
                     let _ = writeln!(s, "{:e} {:e} 0 {:e} 0 0", xx[i], yy[i], xy[i]);
                 }
@@ -75,7 +87,11 @@ mod tests {
         let x = [0.0, 1.0];
         let y = [0.0, 2.0];
         let r = [0.5, 0.5];
-        let s = polydata(&x, &y, &[("radius", Field::Scalar(&r)), ("velocity", Field::Vector(&x, &y))]);
+        let s = polydata(
+            &x,
+            &y,
+            &[("radius", Field::Scalar(&r)), ("velocity", Field::Vector(&x, &y))],
+        );
         assert!(s.contains("NumberOfPoints=\"2\""));
         assert_eq!(s.matches("<DataArray").count(), 5);
         assert_eq!(s.matches("</DataArray>").count(), 5);

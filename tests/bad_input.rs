@@ -5,7 +5,9 @@ use common::TempProject;
 
 #[test]
 fn misspelt_key_names_file_line_and_key() {
-    let t = TempProject::new("version: 1\nstages:\n  - id: psd\n    kind: psd\n    params:\n      n: 100\n      d_mni_mm: 0.9\n");
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: psd\n    kind: psd\n    params:\n      n: 100\n      d_mni_mm: 0.9\n",
+    );
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("pipeline.yaml:7"), "{err}");
@@ -30,7 +32,10 @@ fn cycle_is_printed() {
     );
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("cycle: a -> b -> a") || err.contains("cycle: b -> a -> b"), "{err}");
+    assert!(
+        err.contains("cycle: a -> b -> a") || err.contains("cycle: b -> a -> b"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -55,7 +60,9 @@ fn unphysical_values_are_refused_with_the_allowed_range() {
     assert!(err.contains("params.d_min_mm") && err.contains("> 0"), "{err}");
     assert!(err.contains("dem.grain.restitution") && err.contains("(0, 1]"), "{err}");
     // A rejected stage is reported once, not again as a "missing input" of its dependants.
-    let t = TempProject::new("version: 1\nstages:\n  - id: psd\n    kind: psd\n    params: { n: 0 }\n  - id: f\n    kind: psd-figure\n    inputs: { psd: psd }\n");
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: psd\n    kind: psd\n    params: { n: 0 }\n  - id: f\n    kind: psd-figure\n    inputs: { psd: psd }\n",
+    );
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("params.n") && !err.contains("missing input"), "{err}");
@@ -98,8 +105,14 @@ fn matrix_expands_and_pairs() {
     );
     let (code, out, err) = t.cli(&["list"]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("p-seed1") && out.contains("p-seed2") && out.contains("f-seed2"), "{out}");
-    assert!(out.lines().any(|l| l.starts_with("f-seed2") && l.contains("[p-seed2]")), "{out}");
+    assert!(
+        out.contains("p-seed1") && out.contains("p-seed2") && out.contains("f-seed2"),
+        "{out}"
+    );
+    assert!(
+        out.lines().any(|l| l.starts_with("f-seed2") && l.contains("[p-seed2]")),
+        "{out}"
+    );
 }
 
 #[test]
@@ -111,12 +124,20 @@ fn explicit_rolling_damper_is_refused_by_the_preflight_with_numbers() {
     );
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("params.dem.dt") && err.contains("explicit") && err.contains("e-9 s"), "{err}");
+    assert!(
+        err.contains("params.dem.dt") && err.contains("explicit") && err.contains("e-9 s"),
+        "{err}"
+    );
     // The implicit default passes validation (checked without running: --explain).
-    let t = TempProject::new("version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    inputs: { psd: p }\n");
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    inputs: { psd: p }\n",
+    );
     let (code, out, err) = t.cli(&["run", "--explain"]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("rolling dashpot relaxation") && out.contains("implicit"), "{out}");
+    assert!(
+        out.contains("rolling dashpot relaxation") && out.contains("implicit"),
+        "{out}"
+    );
 }
 
 // ---- The bad-input corpus (issue 8) ---------------------------------------------------
@@ -134,14 +155,27 @@ struct Case {
 }
 
 const PSD: &str = "version: 1\nstages:\n  - id: p\n    kind: psd\n";
-const PSD_FIG: &str = "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: { psd: p }\n";
+const PSD_FIG: &str =
+    "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: { psd: p }\n";
 
 macro_rules! case {
     ($name:expr, $pipeline:expr, $args:expr, $must:expr) => {
-        Case { name: $name, pipeline: $pipeline, files: &[], args: $args, must: $must }
+        Case {
+            name: $name,
+            pipeline: $pipeline,
+            files: &[],
+            args: $args,
+            must: $must,
+        }
     };
     ($name:expr, $pipeline:expr, $files:expr, $args:expr, $must:expr) => {
-        Case { name: $name, pipeline: $pipeline, files: $files, args: $args, must: $must }
+        Case {
+            name: $name,
+            pipeline: $pipeline,
+            files: $files,
+            args: $args,
+            must: $must,
+        }
     };
 }
 
@@ -151,103 +185,549 @@ const PY: &str = "pipeline.yaml";
 fn corpus() -> Vec<Case> {
     vec![
         // -- the pipeline file itself
-        case!("unknown top-level key", "version: 1\nverison: 2\nstages: []\n", RUN, &[PY, "verison"]),
-        case!("unsupported version", "version: 2\nstages: []\n", RUN, &["pipeline.yaml:1", "version"]),
+        case!(
+            "unknown top-level key",
+            "version: 1\nverison: 2\nstages: []\n",
+            RUN,
+            &[PY, "verison"]
+        ),
+        case!(
+            "unsupported version",
+            "version: 2\nstages: []\n",
+            RUN,
+            &["pipeline.yaml:1", "version"]
+        ),
         case!("missing stages", "version: 1\n", RUN, &[PY, "stages"]),
         case!("stages not a list", "version: 1\nstages: 3\n", RUN, &[PY, "stages"]),
-        case!("yaml syntax", "version: 1\nstages:\n  - id: p\n    kind: psd\n   params: {\n", RUN, &[PY, "YAML syntax error"]),
+        case!(
+            "yaml syntax",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n   params: {\n",
+            RUN,
+            &[PY, "YAML syntax error"]
+        ),
         case!("empty file", "", RUN, &[PY]),
-        case!("stage missing id", "version: 1\nstages:\n  - kind: psd\n", RUN, &[PY, "stages[#0]", "id"]),
-        case!("stage missing kind", "version: 1\nstages:\n  - id: p\n", RUN, &[PY, "stages[p]", "kind"]),
-        case!("unknown kind", "version: 1\nstages:\n  - id: p\n    kind: psdd\n", RUN, &["pipeline.yaml:4", "stages[p].kind", "psdd"]),
-        case!("unknown stage field", "version: 1\nstages:\n  - id: p\n    kind: psd\n    param: {}\n", RUN, &["pipeline.yaml:5", "stages[p].param"]),
-        case!("params not a mapping", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: 3\n", RUN, &[PY, "stages[p]", "params"]),
-        case!("duplicate id", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: p\n    kind: psd\n", RUN, &[PY, "stages[p].id", "duplicate"]),
+        case!(
+            "stage missing id",
+            "version: 1\nstages:\n  - kind: psd\n",
+            RUN,
+            &[PY, "stages[#0]", "id"]
+        ),
+        case!(
+            "stage missing kind",
+            "version: 1\nstages:\n  - id: p\n",
+            RUN,
+            &[PY, "stages[p]", "kind"]
+        ),
+        case!(
+            "unknown kind",
+            "version: 1\nstages:\n  - id: p\n    kind: psdd\n",
+            RUN,
+            &["pipeline.yaml:4", "stages[p].kind", "psdd"]
+        ),
+        case!(
+            "unknown stage field",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    param: {}\n",
+            RUN,
+            &["pipeline.yaml:5", "stages[p].param"]
+        ),
+        case!(
+            "params not a mapping",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: 3\n",
+            RUN,
+            &[PY, "stages[p]", "params"]
+        ),
+        case!(
+            "duplicate id",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: p\n    kind: psd\n",
+            RUN,
+            &[PY, "stages[p].id", "duplicate"]
+        ),
         // -- ids (finding 2; all were exit 0)
-        case!("empty id", "version: 1\nstages:\n  - id: \"\"\n    kind: reference-laws\n", RUN, &[PY, "stages[#0].id", "empty"]),
-        case!("id escaping reports/", "version: 1\nstages:\n  - id: ../../../escaped-laws\n    kind: reference-laws\n", RUN, &["pipeline.yaml:3", "../../../escaped-laws"]),
-        case!("id with a slash", "version: 1\nstages:\n  - id: sub/laws\n    kind: reference-laws\n", RUN, &["pipeline.yaml:3", "sub/laws"]),
-        case!("hidden id", "version: 1\nstages:\n  - id: .laws\n    kind: reference-laws\n", RUN, &[PY, ".laws", "start with"]),
-        case!("id with a space", "version: 1\nstages:\n  - id: my laws\n    kind: reference-laws\n", RUN, &[PY, "my laws"]),
-        case!("id with a newline", "version: 1\nstages:\n  - id: \"a\\nb\"\n    kind: reference-laws\n", RUN, &[PY, "a\\nb"]),
-        case!("id with ..", "version: 1\nstages:\n  - id: a..b\n    kind: reference-laws\n", RUN, &[PY, "a..b", ".."]),
-        case!("id with @", "version: 1\nstages:\n  - id: a@b\n    kind: reference-laws\n", RUN, &[PY, "a@b"]),
-        case!("matrix value a mapping", "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [{x: 1, y: 2}] }\n", RUN, &["pipeline.yaml:5", "stages[p].matrix.seed", "not a number"]),
-        case!("matrix value with a slash", "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { tag: [a/b] }\n", RUN, &[PY, "stages[p].matrix.tag", "a/b"]),
-        case!("matrix member id taken", "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1] }\n  - id: p-seed1\n    kind: psd\n", RUN, &[PY, "p-seed1", "duplicate"]),
-        case!("empty matrix", "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [] }\n", RUN, &[PY, "stages[p].matrix.seed", "empty"]),
-        case!("two matrix keys", "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1], n: [50] }\n", RUN, &[PY, "stages[p].matrix"]),
+        case!(
+            "empty id",
+            "version: 1\nstages:\n  - id: \"\"\n    kind: reference-laws\n",
+            RUN,
+            &[PY, "stages[#0].id", "empty"]
+        ),
+        case!(
+            "id escaping reports/",
+            "version: 1\nstages:\n  - id: ../../../escaped-laws\n    kind: reference-laws\n",
+            RUN,
+            &["pipeline.yaml:3", "../../../escaped-laws"]
+        ),
+        case!(
+            "id with a slash",
+            "version: 1\nstages:\n  - id: sub/laws\n    kind: reference-laws\n",
+            RUN,
+            &["pipeline.yaml:3", "sub/laws"]
+        ),
+        case!(
+            "hidden id",
+            "version: 1\nstages:\n  - id: .laws\n    kind: reference-laws\n",
+            RUN,
+            &[PY, ".laws", "start with"]
+        ),
+        case!(
+            "id with a space",
+            "version: 1\nstages:\n  - id: my laws\n    kind: reference-laws\n",
+            RUN,
+            &[PY, "my laws"]
+        ),
+        case!(
+            "id with a newline",
+            "version: 1\nstages:\n  - id: \"a\\nb\"\n    kind: reference-laws\n",
+            RUN,
+            &[PY, "a\\nb"]
+        ),
+        case!(
+            "id with ..",
+            "version: 1\nstages:\n  - id: a..b\n    kind: reference-laws\n",
+            RUN,
+            &[PY, "a..b", ".."]
+        ),
+        case!(
+            "id with @",
+            "version: 1\nstages:\n  - id: a@b\n    kind: reference-laws\n",
+            RUN,
+            &[PY, "a@b"]
+        ),
+        case!(
+            "matrix value a mapping",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [{x: 1, y: 2}] }\n",
+            RUN,
+            &["pipeline.yaml:5", "stages[p].matrix.seed", "not a number"]
+        ),
+        case!(
+            "matrix value with a slash",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { tag: [a/b] }\n",
+            RUN,
+            &[PY, "stages[p].matrix.tag", "a/b"]
+        ),
+        case!(
+            "matrix member id taken",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1] }\n  - id: p-seed1\n    kind: psd\n",
+            RUN,
+            &[PY, "p-seed1", "duplicate"]
+        ),
+        case!(
+            "empty matrix",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [] }\n",
+            RUN,
+            &[PY, "stages[p].matrix.seed", "empty"]
+        ),
+        case!(
+            "two matrix keys",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1], n: [50] }\n",
+            RUN,
+            &[PY, "stages[p].matrix"]
+        ),
         // -- values
-        case!("negative count", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      n: -1\n", RUN, &["pipeline.yaml:6", "stages[p].params.n"]),
-        case!("wrong type", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { n: lots }\n", RUN, &[PY, "stages[p].params.n"]),
-        case!("misspelt key", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_mni_mm: 0.9\n", RUN, &["pipeline.yaml:6", "d_mni_mm"]),
-        case!("nan (was: invalid type: null)", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_min_mm: .nan\n", RUN, &["pipeline.yaml:6", "stages[p].params.d_min_mm", "finite"]),
-        case!("inf", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_max_mm: .inf\n", RUN, &["pipeline.yaml:6", "stages[p].params.d_max_mm", "finite"]),
-        case!("minus inf", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      beta_a: -.inf\n", RUN, &[PY, "params.beta_a", "finite"]),
-        case!("overflowing literal", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      beta_b: 1e999\n", RUN, &["pipeline.yaml:6", "params.beta_b"]),
-        case!("absurd magnitude", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_max_mm: 1e308\n", RUN, &[PY, "params.d_max_mm", "plausible"]),
-        case!("d_max below d_min", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { d_min_mm: 2.0, d_max_mm: 1.0 }\n", RUN, &[PY, "params.d_max_mm"]),
-        case!("negative seed", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { seed: -1 }\n", RUN, &[PY, "params.seed"]),
-        case!("restitution above 1", "version: 1\nstages:\n  - id: t\n    kind: material-table\n    params:\n      table: tab4-02\n      dem: { grain: { restitution: 1.5 } }\n", RUN, &[PY, "params.dem.grain.restitution", "(0, 1]"]),
-        case!("density 1e308 (was: accepted)", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { density: 1e308 }\n    inputs: { psd: p }\n", RUN, &["pipeline.yaml:8", "stages[c].params.dem.density", "plausible"]),
-        case!("friction 1e308 (was: accepted)", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { grain: { friction: 1e308 } }\n    inputs: { psd: p }\n", RUN, &[PY, "params.dem.grain.friction"]),
-        case!("kn 1e308 (was: blames dt)", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { grain: { kn: 1e308 } }\n    inputs: { psd: p }\n", RUN, &[PY, "params.dem.grain.kn", "plausible"]),
-        case!("explicit rolling damper", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { rolling: { damping: explicit } }\n    inputs: { psd: p }\n", RUN, &[PY, "params.dem.dt"]),
-        case!("bad regimes", "version: 1\nstages:\n  - id: l\n    kind: reference-laws\n  - id: f\n    kind: power-law-fit\n    params: { regimes: 3 }\n    inputs: { data: l }\n", RUN, &[PY, "stages[f].params.regimes"]),
+        case!(
+            "negative count",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      n: -1\n",
+            RUN,
+            &["pipeline.yaml:6", "stages[p].params.n"]
+        ),
+        case!(
+            "wrong type",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { n: lots }\n",
+            RUN,
+            &[PY, "stages[p].params.n"]
+        ),
+        case!(
+            "misspelt key",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_mni_mm: 0.9\n",
+            RUN,
+            &["pipeline.yaml:6", "d_mni_mm"]
+        ),
+        case!(
+            "nan (was: invalid type: null)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_min_mm: .nan\n",
+            RUN,
+            &["pipeline.yaml:6", "stages[p].params.d_min_mm", "finite"]
+        ),
+        case!(
+            "inf",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_max_mm: .inf\n",
+            RUN,
+            &["pipeline.yaml:6", "stages[p].params.d_max_mm", "finite"]
+        ),
+        case!(
+            "minus inf",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      beta_a: -.inf\n",
+            RUN,
+            &[PY, "params.beta_a", "finite"]
+        ),
+        case!(
+            "overflowing literal",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      beta_b: 1e999\n",
+            RUN,
+            &["pipeline.yaml:6", "params.beta_b"]
+        ),
+        case!(
+            "absurd magnitude",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params:\n      d_max_mm: 1e308\n",
+            RUN,
+            &[PY, "params.d_max_mm", "plausible"]
+        ),
+        case!(
+            "d_max below d_min",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { d_min_mm: 2.0, d_max_mm: 1.0 }\n",
+            RUN,
+            &[PY, "params.d_max_mm"]
+        ),
+        case!(
+            "negative seed",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { seed: -1 }\n",
+            RUN,
+            &[PY, "params.seed"]
+        ),
+        case!(
+            "restitution above 1",
+            "version: 1\nstages:\n  - id: t\n    kind: material-table\n    params:\n      table: tab4-02\n      dem: { grain: { restitution: 1.5 } }\n",
+            RUN,
+            &[PY, "params.dem.grain.restitution", "(0, 1]"]
+        ),
+        case!(
+            "density 1e308 (was: accepted)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { density: 1e308 }\n    inputs: { psd: p }\n",
+            RUN,
+            &["pipeline.yaml:8", "stages[c].params.dem.density", "plausible"]
+        ),
+        case!(
+            "friction 1e308 (was: accepted)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { grain: { friction: 1e308 } }\n    inputs: { psd: p }\n",
+            RUN,
+            &[PY, "params.dem.grain.friction"]
+        ),
+        case!(
+            "kn 1e308 (was: blames dt)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { grain: { kn: 1e308 } }\n    inputs: { psd: p }\n",
+            RUN,
+            &[PY, "params.dem.grain.kn", "plausible"]
+        ),
+        case!(
+            "explicit rolling damper",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params:\n      dem: { rolling: { damping: explicit } }\n    inputs: { psd: p }\n",
+            RUN,
+            &[PY, "params.dem.dt"]
+        ),
+        case!(
+            "bad regimes",
+            "version: 1\nstages:\n  - id: l\n    kind: reference-laws\n  - id: f\n    kind: power-law-fit\n    params: { regimes: 3 }\n    inputs: { data: l }\n",
+            RUN,
+            &[PY, "stages[f].params.regimes"]
+        ),
         // -- stage files
-        case!("params_file missing", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/none.yaml\n", RUN, &["pipeline.yaml:5", "stages[p].params_file", "none.yaml"]),
-        case!("params_file syntax", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "n: [\n")], RUN, &["p.yaml", "YAML syntax error"]),
-        case!("params_file a list", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "- 1\n- 2\n")], RUN, &["p.yaml:1", "mapping"]),
-        case!("params_file bad value", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "# grains\nn: 0\n")], RUN, &["p.yaml:2", "params.n"]),
-        case!("params_file misspelt key", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "seeed: 4\n")], RUN, &["p.yaml:1", "seeed"]),
-        case!("params_file nan", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "n: 100\nd_min_mm: .nan\n")], RUN, &["p.yaml:2", "d_min_mm", "finite"]),
-        case!("params_file unknown profile", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "n: 100\nprofiles:\n  fast: { n: 50 }\n")], RUN, &["p.yaml:3", "profiles.fast"]),
-        case!("params_file profiles not a mapping", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "profiles: 3\n")], RUN, &["p.yaml", "profiles"]),
+        case!(
+            "params_file missing",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/none.yaml\n",
+            RUN,
+            &["pipeline.yaml:5", "stages[p].params_file", "none.yaml"]
+        ),
+        case!(
+            "params_file syntax",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "n: [\n")],
+            RUN,
+            &["p.yaml", "YAML syntax error"]
+        ),
+        case!(
+            "params_file a list",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "- 1\n- 2\n")],
+            RUN,
+            &["p.yaml:1", "mapping"]
+        ),
+        case!(
+            "params_file bad value",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "# grains\nn: 0\n")],
+            RUN,
+            &["p.yaml:2", "params.n"]
+        ),
+        case!(
+            "params_file misspelt key",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "seeed: 4\n")],
+            RUN,
+            &["p.yaml:1", "seeed"]
+        ),
+        case!(
+            "params_file nan",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "n: 100\nd_min_mm: .nan\n")],
+            RUN,
+            &["p.yaml:2", "d_min_mm", "finite"]
+        ),
+        case!(
+            "params_file unknown profile",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "n: 100\nprofiles:\n  fast: { n: 50 }\n")],
+            RUN,
+            &["p.yaml:3", "profiles.fast"]
+        ),
+        case!(
+            "params_file profiles not a mapping",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "profiles: 3\n")],
+            RUN,
+            &["p.yaml", "profiles"]
+        ),
         // -- profiles (finding 5: the paper layer was checked only when paper ran)
-        case!("unknown entry profile", "version: 1\nstages:\n  - id: p\n    kind: psd\n    profiles: { fast: { n: 50 } }\n", RUN, &[PY, "stages[p].profiles.fast"]),
-        case!("bad paper layer inline (was: exit 0)", "version: 1\nstages:\n  - id: p\n    kind: psd\n    profiles:\n      paper: { n: -1 }\n", RUN, &[PY, "stages[p].params.n", "profile `paper`"]),
-        case!("bad paper layer in a file (was: exit 0)", "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n", &[("stages/p.yaml", "n: 100\nprofiles:\n  paper:\n    n: 0\n")], RUN, &["p.yaml:4", "params.n", "profile `paper`"]),
-        case!("bad quick layer seen from paper", "version: 1\nstages:\n  - id: p\n    kind: psd\n    profiles:\n      quick: { d_min_mm: .nan }\n", &[], &["run", "--quiet", "--profile", "paper"], &[PY, "params.d_min_mm", "profile `quick`"]),
+        case!(
+            "unknown entry profile",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    profiles: { fast: { n: 50 } }\n",
+            RUN,
+            &[PY, "stages[p].profiles.fast"]
+        ),
+        case!(
+            "bad paper layer inline (was: exit 0)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    profiles:\n      paper: { n: -1 }\n",
+            RUN,
+            &[PY, "stages[p].params.n", "profile `paper`"]
+        ),
+        case!(
+            "bad paper layer in a file (was: exit 0)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n",
+            &[("stages/p.yaml", "n: 100\nprofiles:\n  paper:\n    n: 0\n")],
+            RUN,
+            &["p.yaml:4", "params.n", "profile `paper`"]
+        ),
+        case!(
+            "bad quick layer seen from paper",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    profiles:\n      quick: { d_min_mm: .nan }\n",
+            &[],
+            &["run", "--quiet", "--profile", "paper"],
+            &[PY, "params.d_min_mm", "profile `quick`"]
+        ),
         // -- inputs and roles (finding 5: were exit 1 at run time, or accepted)
-        case!("input names no stage", "version: 1\nstages:\n  - id: f\n    kind: psd-figure\n    inputs: { psd: nope }\n", RUN, &["pipeline.yaml:5", "stages[f].inputs", "nope"]),
-        case!("unpaired matrix member", "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1] }\n  - id: f\n    kind: psd-figure\n    matrix: { seed: [1, 2] }\n    inputs: { psd: p }\n", RUN, &[PY, "stages[f-seed2].inputs", "no member"]),
-        case!("cycle", "version: 1\nstages:\n  - id: a\n    kind: psd-figure\n    inputs: { psd: b }\n  - id: b\n    kind: psd-figure\n    inputs: { psd: a }\n", RUN, &[PY, "stages", "cycle"]),
-        case!("self cycle", "version: 1\nstages:\n  - id: a\n    kind: psd-figure\n    inputs: { psd: a }\n", RUN, &[PY, "cycle: a -> a"]),
-        case!("required input missing (was: exit 1)", "version: 1\nstages:\n  - id: f\n    kind: psd-figure\n", RUN, &["pipeline.yaml:3", "stages[f].inputs", "missing required input `psd`"]),
-        case!("snapshot without column (was: exit 1)", "version: 1\nstages:\n  - id: s\n    kind: dem-snapshot\n", RUN, &[PY, "stages[s].inputs", "`column`"]),
-        case!("fit overlay without laws (was: exit 1)", "version: 1\nstages:\n  - id: l\n    kind: reference-laws\n  - id: f\n    kind: power-law-fit\n    params: { x: a, y: eq4_6_runout, overlay_laws: [eq4_6_runout] }\n    inputs: { data: l }\n", RUN, &[PY, "stages[f].inputs", "`laws`"]),
-        case!("role the kind does not read (was: accepted)", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: q\n    kind: psd\n    inputs: { seed_from: p }\n", RUN, &["pipeline.yaml:7", "stages[q].inputs", "seed_from"]),
-        case!("list form with a foreign role", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: [p]\n", RUN, &[PY, "stages[f].inputs", "role `p`"]),
-        case!("two stages for a single role", "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: q\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: { psd: [p, q] }\n", RUN, &[PY, "stages[f].inputs", "exactly one"]),
+        case!(
+            "input names no stage",
+            "version: 1\nstages:\n  - id: f\n    kind: psd-figure\n    inputs: { psd: nope }\n",
+            RUN,
+            &["pipeline.yaml:5", "stages[f].inputs", "nope"]
+        ),
+        case!(
+            "unpaired matrix member",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1] }\n  - id: f\n    kind: psd-figure\n    matrix: { seed: [1, 2] }\n    inputs: { psd: p }\n",
+            RUN,
+            &[PY, "stages[f-seed2].inputs", "no member"]
+        ),
+        case!(
+            "cycle",
+            "version: 1\nstages:\n  - id: a\n    kind: psd-figure\n    inputs: { psd: b }\n  - id: b\n    kind: psd-figure\n    inputs: { psd: a }\n",
+            RUN,
+            &[PY, "stages", "cycle"]
+        ),
+        case!(
+            "self cycle",
+            "version: 1\nstages:\n  - id: a\n    kind: psd-figure\n    inputs: { psd: a }\n",
+            RUN,
+            &[PY, "cycle: a -> a"]
+        ),
+        case!(
+            "required input missing (was: exit 1)",
+            "version: 1\nstages:\n  - id: f\n    kind: psd-figure\n",
+            RUN,
+            &["pipeline.yaml:3", "stages[f].inputs", "missing required input `psd`"]
+        ),
+        case!(
+            "snapshot without column (was: exit 1)",
+            "version: 1\nstages:\n  - id: s\n    kind: dem-snapshot\n",
+            RUN,
+            &[PY, "stages[s].inputs", "`column`"]
+        ),
+        case!(
+            "fit overlay without laws (was: exit 1)",
+            "version: 1\nstages:\n  - id: l\n    kind: reference-laws\n  - id: f\n    kind: power-law-fit\n    params: { x: a, y: eq4_6_runout, overlay_laws: [eq4_6_runout] }\n    inputs: { data: l }\n",
+            RUN,
+            &[PY, "stages[f].inputs", "`laws`"]
+        ),
+        case!(
+            "role the kind does not read (was: accepted)",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: q\n    kind: psd\n    inputs: { seed_from: p }\n",
+            RUN,
+            &["pipeline.yaml:7", "stages[q].inputs", "seed_from"]
+        ),
+        case!(
+            "list form with a foreign role",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: [p]\n",
+            RUN,
+            &[PY, "stages[f].inputs", "role `p`"]
+        ),
+        case!(
+            "two stages for a single role",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: q\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: { psd: [p, q] }\n",
+            RUN,
+            &[PY, "stages[f].inputs", "exactly one"]
+        ),
         // -- the command line
-        case!("--set unknown stage", PSD, &["run", "--quiet", "--set", "nostage.n=3"], &["<command line>", "nostage"]),
-        case!("--set without a key", PSD, &["run", "--quiet", "--set", "p=3"], &["<command line>", "p=3"]),
-        case!("--set without a value", PSD, &["run", "--quiet", "--set", "p.n"], &["<command line>", "p.n"]),
-        case!("--set invalid yaml", PSD, &["run", "--quiet", "--set", "p.n=["], &["<command line>", "p.n"]),
-        case!("--set bad value", PSD, &["run", "--quiet", "--set", "p.n=-5"], &["<command line>", "stages[p].params.n"]),
-        case!("--set nan", PSD, &["run", "--quiet", "--set", "p.d_min_mm=.nan"], &["<command line>", "params.d_min_mm", "finite"]),
-        case!("--set unknown key", PSD, &["run", "--quiet", "--set", "p.nn=5"], &["<command line>", "params.nn"]),
-        case!("--jobs 0 (was: silently 1)", PSD, &["run", "--quiet", "--jobs", "0"], &["--jobs", "at least 1"]),
-        case!("--jobs not a number", PSD, &["run", "--quiet", "--jobs", "two"], &["--jobs"]),
-        case!("--profile unknown", PSD, &["run", "--quiet", "--profile", "fast"], &["--profile", "fast"]),
-        case!("--stage unknown", PSD, &["run", "--quiet", "--stage", "zzz"], &["unknown stage", "zzz"]),
-        case!("--only unknown", PSD, &["run", "--quiet", "--only", "zzz"], &["--only zzz"]),
-        case!("--only with inputs not cached", PSD_FIG, &["run", "--quiet", "--only", "f"], &["--only", "p (needed by f"]),
+        case!(
+            "--set unknown stage",
+            PSD,
+            &["run", "--quiet", "--set", "nostage.n=3"],
+            &["<command line>", "nostage"]
+        ),
+        case!(
+            "--set without a key",
+            PSD,
+            &["run", "--quiet", "--set", "p=3"],
+            &["<command line>", "p=3"]
+        ),
+        case!(
+            "--set without a value",
+            PSD,
+            &["run", "--quiet", "--set", "p.n"],
+            &["<command line>", "p.n"]
+        ),
+        case!(
+            "--set invalid yaml",
+            PSD,
+            &["run", "--quiet", "--set", "p.n=["],
+            &["<command line>", "p.n"]
+        ),
+        case!(
+            "--set bad value",
+            PSD,
+            &["run", "--quiet", "--set", "p.n=-5"],
+            &["<command line>", "stages[p].params.n"]
+        ),
+        case!(
+            "--set nan",
+            PSD,
+            &["run", "--quiet", "--set", "p.d_min_mm=.nan"],
+            &["<command line>", "params.d_min_mm", "finite"]
+        ),
+        case!(
+            "--set unknown key",
+            PSD,
+            &["run", "--quiet", "--set", "p.nn=5"],
+            &["<command line>", "params.nn"]
+        ),
+        case!(
+            "--jobs 0 (was: silently 1)",
+            PSD,
+            &["run", "--quiet", "--jobs", "0"],
+            &["--jobs", "at least 1"]
+        ),
+        case!(
+            "--jobs not a number",
+            PSD,
+            &["run", "--quiet", "--jobs", "two"],
+            &["--jobs"]
+        ),
+        case!(
+            "--profile unknown",
+            PSD,
+            &["run", "--quiet", "--profile", "fast"],
+            &["--profile", "fast"]
+        ),
+        case!(
+            "--stage unknown",
+            PSD,
+            &["run", "--quiet", "--stage", "zzz"],
+            &["unknown stage", "zzz"]
+        ),
+        case!(
+            "--only unknown",
+            PSD,
+            &["run", "--quiet", "--only", "zzz"],
+            &["--only zzz"]
+        ),
+        case!(
+            "--only with inputs not cached",
+            PSD_FIG,
+            &["run", "--quiet", "--only", "f"],
+            &["--only", "p (needed by f"]
+        ),
         case!("params of no stage", PSD, &["params", "zzz"], &["zzz"]),
-        case!("status with a bad --set", PSD, &["status", "--set", "p.n=-5"], &["<command line>", "params.n"]),
-        case!("list of a bad pipeline", "version: 1\nstages:\n  - id: p\n    kind: psdd\n", &["list"], &[PY, "stages[p].kind"]),
-        case!("dag of a bad pipeline", "version: 1\nstages:\n  - id: p\n    kind: psdd\n", &["dag"], &[PY, "stages[p].kind"]),
-        case!("clean with no pipeline file", PSD, &["clean", "--pipeline", "no-such.yaml"], &["no-such.yaml"]),
-        case!("run with no pipeline file", PSD, &["run", "--pipeline", "no-such.yaml"], &["no-such.yaml"]),
+        case!(
+            "status with a bad --set",
+            PSD,
+            &["status", "--set", "p.n=-5"],
+            &["<command line>", "params.n"]
+        ),
+        case!(
+            "list of a bad pipeline",
+            "version: 1\nstages:\n  - id: p\n    kind: psdd\n",
+            &["list"],
+            &[PY, "stages[p].kind"]
+        ),
+        case!(
+            "dag of a bad pipeline",
+            "version: 1\nstages:\n  - id: p\n    kind: psdd\n",
+            &["dag"],
+            &[PY, "stages[p].kind"]
+        ),
+        case!(
+            "clean with no pipeline file",
+            PSD,
+            &["clean", "--pipeline", "no-such.yaml"],
+            &["no-such.yaml"]
+        ),
+        case!(
+            "run with no pipeline file",
+            PSD,
+            &["run", "--pipeline", "no-such.yaml"],
+            &["no-such.yaml"]
+        ),
         // -- simulate (finding 5: errors pointed at the generated file)
-        case!("scene unknown key", PSD, &[("scene.yaml", "psd: { n: 50 }\npsdd: {}\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml:2", "psdd"]),
-        case!("scene bad value", PSD, &[("scene.yaml", "psd:\n  n: 0\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml:2", "psd.n"]),
-        case!("scene bad dem value", PSD, &[("scene.yaml", "dem:\n  grain:\n    restitution: 1.5\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml:3", "dem.grain.restitution"]),
-        case!("scene bad run value", PSD, &[("scene.yaml", "run:\n  nope: 1\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml:2", "run.nope"]),
-        case!("scene nan", PSD, &[("scene.yaml", "stiffness_factor: .nan\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml:1", "stiffness_factor", "finite"]),
-        case!("scene syntax", PSD, &[("scene.yaml", "psd: {\n")], &["simulate", "scene.yaml", "--out", "sim-out"], &["scene.yaml", "YAML syntax error"]),
-        case!("scene missing", PSD, &["simulate", "no-scene.yaml", "--out", "sim-out"], &["no-scene.yaml"]),
-        case!("simulate --out a file", PSD, &[("scene.yaml", "psd: { n: 50 }\n")], &["simulate", "scene.yaml", "--out", "pipeline.yaml"], &["pipeline.yaml", "--out"]),
+        case!(
+            "scene unknown key",
+            PSD,
+            &[("scene.yaml", "psd: { n: 50 }\npsdd: {}\n")],
+            &["simulate", "scene.yaml", "--out", "sim-out"],
+            &["scene.yaml:2", "psdd"]
+        ),
+        case!(
+            "scene bad value",
+            PSD,
+            &[("scene.yaml", "psd:\n  n: 0\n")],
+            &["simulate", "scene.yaml", "--out", "sim-out"],
+            &["scene.yaml:2", "psd.n"]
+        ),
+        case!(
+            "scene bad dem value",
+            PSD,
+            &[("scene.yaml", "dem:\n  grain:\n    restitution: 1.5\n")],
+            &["simulate", "scene.yaml", "--out", "sim-out"],
+            &["scene.yaml:3", "dem.grain.restitution"]
+        ),
+        case!(
+            "scene bad run value",
+            PSD,
+            &[("scene.yaml", "run:\n  nope: 1\n")],
+            &["simulate", "scene.yaml", "--out", "sim-out"],
+            &["scene.yaml:2", "run.nope"]
+        ),
+        case!(
+            "scene nan",
+            PSD,
+            &[("scene.yaml", "stiffness_factor: .nan\n")],
+            &["simulate", "scene.yaml", "--out", "sim-out"],
+            &["scene.yaml:1", "stiffness_factor", "finite"]
+        ),
+        case!(
+            "scene syntax",
+            PSD,
+            &[("scene.yaml", "psd: {\n")],
+            &["simulate", "scene.yaml", "--out", "sim-out"],
+            &["scene.yaml", "YAML syntax error"]
+        ),
+        case!(
+            "scene missing",
+            PSD,
+            &["simulate", "no-scene.yaml", "--out", "sim-out"],
+            &["no-scene.yaml"]
+        ),
+        case!(
+            "simulate --out a file",
+            PSD,
+            &[("scene.yaml", "psd: { n: 50 }\n")],
+            &["simulate", "scene.yaml", "--out", "pipeline.yaml"],
+            &["pipeline.yaml", "--out"]
+        ),
     ]
 }
 
@@ -260,7 +740,11 @@ fn project_args(t: &TempProject, args: &[&str]) -> Vec<String> {
         .map(|(i, a)| {
             let prev = if i > 0 { args[i - 1] } else { "" };
             let is_path = prev == "--out" || prev == "--pipeline" || (simulate && a.ends_with(".yaml"));
-            if is_path { t.path().join(a).to_string_lossy().to_string() } else { a.to_string() }
+            if is_path {
+                t.path().join(a).to_string_lossy().to_string()
+            } else {
+                a.to_string()
+            }
         })
         .collect()
 }
@@ -287,11 +771,20 @@ fn bad_input_corpus() {
             failures.push(format!("[{}] exit {code:?}, missing {missing:?}:\n{err}", c.name));
         }
         // Nothing is written for bad input.
-        if t.path().join(".granrepro").exists() || t.path().join("reports").exists() || t.path().join("sim-out").exists() {
+        if t.path().join(".granrepro").exists()
+            || t.path().join("reports").exists()
+            || t.path().join("sim-out").exists()
+        {
             failures.push(format!("[{}] wrote files although the input was rejected", c.name));
         }
     }
-    assert!(failures.is_empty(), "{} of {} cases failed:\n{}", failures.len(), cases.len(), failures.join("\n\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n\n")
+    );
 }
 
 /// Finding 5: one bad entry produced 6–8 follow-on "missing input" errors, and a bad
@@ -311,7 +804,10 @@ fn one_error_per_root_cause() {
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert_eq!(err.matches("error:").count(), 1, "{err}");
-    assert!(err.contains("shared.yaml:2") && err.contains("stages[a, b, c].params.d_min_mm"), "{err}");
+    assert!(
+        err.contains("shared.yaml:2") && err.contains("stages[a, b, c].params.d_min_mm"),
+        "{err}"
+    );
 }
 
 /// The shipped pipeline declares every role its kinds read (the role table in

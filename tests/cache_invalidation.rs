@@ -6,7 +6,11 @@ use common::{SMALL, TempProject};
 use granrepro::pipeline::{Override, Project, RunOptions, load, run::run};
 
 fn opts() -> RunOptions {
-    RunOptions { jobs: 2, quiet: true, ..Default::default() }
+    RunOptions {
+        jobs: 2,
+        quiet: true,
+        ..Default::default()
+    }
 }
 
 fn sorted(v: Vec<&str>) -> Vec<String> {
@@ -33,12 +37,21 @@ fn changing_one_param_reruns_exactly_its_dependants() {
     assert_eq!(sorted(s3.ran()), ["fig-a", "psd-a", "tab"]);
     assert_eq!(sorted(s3.cached()), ["laws", "psd-b"]);
     // The run records say so too: fig-a's record names the new psd-a key.
-    let rec: serde_json::Value = serde_json::from_slice(&std::fs::read(t.path().join("reports/quick/fig-a.record.json")).unwrap()).unwrap();
+    let rec: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(t.path().join("reports/quick/fig-a.record.json")).unwrap()).unwrap();
     let psd_key = s3.stages.iter().find(|s| s.id == "psd-a").unwrap().key.clone();
     assert_eq!(rec["inputs"][0]["key"].as_str().unwrap(), psd_key);
     // A different profile is a different key.
     let pq = load(&t.pipeline(), "paper", &[]).unwrap();
-    let s4 = run(&pq, &proj, &RunOptions { targets: vec!["laws".into()], ..opts() }).unwrap();
+    let s4 = run(
+        &pq,
+        &proj,
+        &RunOptions {
+            targets: vec!["laws".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     assert_eq!(s4.ran(), ["laws"]);
 }
 
@@ -69,7 +82,15 @@ fn corrupt_entry_is_recomputed() {
     let t = TempProject::new(SMALL);
     let proj = Project::new(t.path());
     let p = load(&t.pipeline(), "quick", &[]).unwrap();
-    let s1 = run(&p, &proj, &RunOptions { targets: vec!["fig-a".into()], ..opts() }).unwrap();
+    let s1 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["fig-a".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     let key = s1.stages.iter().find(|s| s.id == "psd-a").unwrap().key.clone();
     let entry = proj.cache.entry_dir(&key);
     // Flip bytes in an artifact.
@@ -78,12 +99,29 @@ fn corrupt_entry_is_recomputed() {
     let n = bytes.len();
     bytes[n / 2] ^= 0xff;
     std::fs::write(&pq, bytes).unwrap();
-    let s2 = run(&p, &proj, &RunOptions { targets: vec!["fig-a".into()], ..opts() }).unwrap();
+    let s2 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["fig-a".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     assert!(s2.ran().contains(&"psd-a"), "corrupt psd-a was reused: {:?}", s2.stages);
     assert!(proj.cache.verify(&entry, &key).is_ok());
     // Same numbers as before: the stage is deterministic.
     let a = std::fs::read(t.path().join("reports/quick/psd-a.csv")).unwrap();
-    let s3 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], force: true, ..opts() }).unwrap();
+    let s3 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["psd-a".into()],
+            force: true,
+            ..opts()
+        },
+    )
+    .unwrap();
     assert_eq!(s3.ran(), ["psd-a"]);
     assert_eq!(a, std::fs::read(t.path().join("reports/quick/psd-a.csv")).unwrap());
 }
@@ -97,7 +135,15 @@ fn forced_run_replaces_a_complete_entry() {
     let t = TempProject::new(SMALL);
     let proj = Project::new(t.path());
     let p = load(&t.pipeline(), "quick", &[]).unwrap();
-    let s1 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], ..opts() }).unwrap();
+    let s1 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["psd-a".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     let entry = proj.cache.entry_dir(&s1.stages[0].key);
     let fresh = std::fs::read(entry.join("table.csv")).unwrap();
     let edited = [fresh.as_slice(), b"0.5\n"].concat();
@@ -106,13 +152,33 @@ fn forced_run_replaces_a_complete_entry() {
     let mut m: serde_json::Value = serde_json::from_slice(&std::fs::read(&mpath).unwrap()).unwrap();
     m["files"]["table.csv"] = blake3::hash(&edited).to_hex().to_string().into();
     std::fs::write(&mpath, serde_json::to_vec_pretty(&m).unwrap()).unwrap();
-    assert!(proj.cache.verify(&entry, &s1.stages[0].key).is_ok(), "the edited entry is complete");
+    assert!(
+        proj.cache.verify(&entry, &s1.stages[0].key).is_ok(),
+        "the edited entry is complete"
+    );
     // Unforced: the complete entry is reused as it is.
-    let s2 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], ..opts() }).unwrap();
+    let s2 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["psd-a".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     assert_eq!(s2.cached(), ["psd-a"]);
     assert_eq!(std::fs::read(entry.join("table.csv")).unwrap(), edited);
     // Forced: recomputed and put in place of the old entry.
-    let s3 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], force: true, ..opts() }).unwrap();
+    let s3 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["psd-a".into()],
+            force: true,
+            ..opts()
+        },
+    )
+    .unwrap();
     assert_eq!(s3.ran(), ["psd-a"]);
     assert_eq!(std::fs::read(entry.join("table.csv")).unwrap(), fresh);
     assert_eq!(std::fs::read(t.path().join("reports/quick/psd-a.csv")).unwrap(), fresh);
@@ -124,7 +190,15 @@ fn killed_run_leaves_nothing_taken_as_valid() {
     let t = TempProject::new(SMALL);
     let proj = Project::new(t.path());
     let p = load(&t.pipeline(), "quick", &[]).unwrap();
-    let s1 = run(&p, &proj, &RunOptions { targets: vec!["psd-a".into()], ..opts() }).unwrap();
+    let s1 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["psd-a".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     let key = s1.stages[0].key.clone();
     let fig_key = granrepro::pipeline::run::key_records(&p)["fig-a"].1.clone();
     // What a kill between writing artifacts and the manifest would leave: (a) a temp
@@ -133,7 +207,15 @@ fn killed_run_leaves_nothing_taken_as_valid() {
     let partial = proj.cache.entry_dir(&fig_key);
     std::fs::create_dir_all(&partial).unwrap();
     std::fs::write(partial.join("table.csv"), "d_mm\n1.0\n").unwrap();
-    let s2 = run(&p, &proj, &RunOptions { targets: vec!["fig-a".into()], ..opts() }).unwrap();
+    let s2 = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["fig-a".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
     assert_eq!(s2.ran(), ["fig-a"], "{:?}", s2.stages);
     assert_eq!(s2.cached(), ["psd-a"]);
     assert!(proj.cache.verify(&partial, &fig_key).is_ok());
@@ -160,9 +242,35 @@ fn results_are_identical_whatever_the_job_count() {
     let t2 = TempProject::new(SMALL);
     let p1 = load(&t1.pipeline(), "quick", &[]).unwrap();
     let p2 = load(&t2.pipeline(), "quick", &[]).unwrap();
-    run(&p1, &Project::new(t1.path()), &RunOptions { jobs: 1, quiet: true, ..Default::default() }).unwrap();
-    run(&p2, &Project::new(t2.path()), &RunOptions { jobs: 4, quiet: true, ..Default::default() }).unwrap();
-    for f in ["psd-a.parquet", "psd-a.csv", "fig-a.csv", "fig-a.svg", "tab.csv", "laws.parquet", "fig-a.json"] {
+    run(
+        &p1,
+        &Project::new(t1.path()),
+        &RunOptions {
+            jobs: 1,
+            quiet: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    run(
+        &p2,
+        &Project::new(t2.path()),
+        &RunOptions {
+            jobs: 4,
+            quiet: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for f in [
+        "psd-a.parquet",
+        "psd-a.csv",
+        "fig-a.csv",
+        "fig-a.svg",
+        "tab.csv",
+        "laws.parquet",
+        "fig-a.json",
+    ] {
         let a = std::fs::read(t1.path().join("reports/quick").join(f)).unwrap();
         let b = std::fs::read(t2.path().join("reports/quick").join(f)).unwrap();
         assert!(a == b, "{f} differs between --jobs 1 and --jobs 4");

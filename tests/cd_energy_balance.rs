@@ -5,15 +5,30 @@ use granrepro::cd::pile::DropSpec;
 use granrepro::cd::{CdParams, World};
 use granrepro::math::{Real, Vec2};
 
-fn run(e: Real, theta: Real, mu: Real, drive: bool) -> (granrepro::cd::Balance, Real) { run_r(e, theta, mu, drive, 0.0) }
+fn run(e: Real, theta: Real, mu: Real, drive: bool) -> (granrepro::cd::Balance, Real) {
+    run_r(e, theta, mu, drive, 0.0)
+}
 
 fn run_r(e: Real, theta: Real, mu: Real, drive: bool, mu_r: Real) -> (granrepro::cd::Balance, Real) {
-    let spec = DropSpec { ncol: 8, nrow: 6, scale: 1e-3, seed: 9 };
+    let spec = DropSpec {
+        ncol: 8,
+        nrow: 6,
+        scale: 1e-3,
+        seed: 9,
+    };
     let (s, mut walls) = spec.build(2600.0);
     if drive {
         walls[2].velocity = Vec2::new(-0.05, 0.0); // right wall pushes in
     }
-    let p = CdParams { dt: 4e-5, theta, restitution_n: e, friction: mu, wall_friction: mu, rolling_friction: mu_r, ..CdParams::default() };
+    let p = CdParams {
+        dt: 4e-5,
+        theta,
+        restitution_n: e,
+        friction: mu,
+        wall_friction: mu,
+        rolling_friction: mu_r,
+        ..CdParams::default()
+    };
     let mut w = World::new(p, s, walls, None).unwrap();
     w.run(2500).unwrap();
     let m: Real = w.state.m.iter().sum();
@@ -22,11 +37,25 @@ fn run_r(e: Real, theta: Real, mu: Real, drive: bool, mu_r: Real) -> (granrepro:
 
 #[test]
 fn ledger_closes_to_round_off() {
-    for (e, theta, mu, drive) in [(0.0, 0.5, 0.4, false), (0.5, 0.5, 0.4, false), (1.0, 0.5, 0.0, false), (0.0, 1.0, 0.4, false), (0.0, 0.5, 0.4, true)] {
+    for (e, theta, mu, drive) in [
+        (0.0, 0.5, 0.4, false),
+        (0.5, 0.5, 0.4, false),
+        (1.0, 0.5, 0.0, false),
+        (0.0, 1.0, 0.4, false),
+        (0.0, 0.5, 0.4, true),
+    ] {
         let (b, scale) = run(e, theta, mu, drive);
         eprintln!("e={e} θ={theta} μ={mu} drive={drive}: {b:?}");
-        assert!(b.residual.abs() < 1e-9 * scale, "residual {} vs M g d = {scale}", b.residual);
-        assert!(b.ledger.collisional >= -1e-9 * scale, "impacts dissipate: {}", b.ledger.collisional);
+        assert!(
+            b.residual.abs() < 1e-9 * scale,
+            "residual {} vs M g d = {scale}",
+            b.residual
+        );
+        assert!(
+            b.ledger.collisional >= -1e-9 * scale,
+            "impacts dissipate: {}",
+            b.ledger.collisional
+        );
         if mu > 0.0 {
             assert!(b.ledger.frictional > 0.0, "friction dissipates");
         }
@@ -48,7 +77,12 @@ fn ledger_closes_with_rolling_resistance() {
     let (b0, scale) = run_r(0.0, 0.5, 0.4, false, 0.0);
     let (b, _) = run_r(0.0, 0.5, 0.4, false, 0.2);
     assert!(b.residual.abs() < 1e-9 * scale, "residual {}", b.residual);
-    assert!(b.now.erot < b0.now.erot, "rolling resistance brakes spins: {} vs {}", b.now.erot, b0.now.erot);
+    assert!(
+        b.now.erot < b0.now.erot,
+        "rolling resistance brakes spins: {} vs {}",
+        b.now.erot,
+        b0.now.erot
+    );
 }
 
 #[test]
@@ -56,5 +90,9 @@ fn elastic_frictionless_impacts_conserve_energy() {
     let (b, scale) = run(1.0, 0.5, 0.0, false);
     // e = 1, θ = ½: U_n = ū_n on impacts, so P_n ū_n = 0; only contacts activated while
     // separating (u⁻_n > 0) can exchange O(h²) energy.
-    assert!(b.ledger.dissipated().abs() < 0.02 * (b.e0 - b.now.ep).abs().max(scale), "elastic: D = {:?}", b.ledger);
+    assert!(
+        b.ledger.dissipated().abs() < 0.02 * (b.e0 - b.now.ep).abs().max(scale),
+        "elastic: D = {:?}",
+        b.ledger
+    );
 }

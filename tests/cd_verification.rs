@@ -10,12 +10,20 @@ use granrepro::math::{G, Real, Vec2};
 const R: Real = 1e-3;
 
 fn params() -> CdParams {
-    CdParams { dt: 1e-4, tolerance: 1e-10, residual_tolerance: 1e-8, max_iterations: 5000, ..CdParams::default() }
+    CdParams {
+        dt: 1e-4,
+        tolerance: 1e-10,
+        residual_tolerance: 1e-8,
+        max_iterations: 5000,
+        ..CdParams::default()
+    }
 }
 
 /// One disk resting on an incline of angle `deg` (wall through the origin), released at
 /// rest; returns (down-slope acceleration, slip velocity at the contact point at the end).
-fn incline(deg: Real, mu: Real, spin: bool) -> (Real, Real) { incline_r(deg, mu, spin, 0.0) }
+fn incline(deg: Real, mu: Real, spin: bool) -> (Real, Real) {
+    incline_r(deg, mu, spin, 0.0)
+}
 
 fn incline_r(deg: Real, mu: Real, spin: bool, mu_r: Real) -> (Real, Real) {
     let th = deg.to_radians();
@@ -27,7 +35,12 @@ fn incline_r(deg: Real, mu: Real, spin: bool, mu_r: Real) -> (Real, Real) {
     if !spin {
         s.inv_i[0] = 0.0; // a sliding block: rotation locked
     }
-    let p = CdParams { friction: mu, wall_friction: mu, rolling_friction: mu_r, ..params() };
+    let p = CdParams {
+        friction: mu,
+        wall_friction: mu,
+        rolling_friction: mu_r,
+        ..params()
+    };
     let mut w = World::new(p, s, vec![Wall::new("incline", Vec2::zeros(), n)], None).unwrap();
     let steps = 200;
     w.run(steps).unwrap();
@@ -53,7 +66,10 @@ fn block_sticks_below_atan_mu_and_slides_above() {
         let th = (deg as Real).to_radians();
         let exact = G * (th.sin() - mu * th.cos());
         let (a, _) = incline(deg, mu, false);
-        assert!((a - exact).abs() < 1e-6 * G, "{deg}°: a = {a}, expected g(sinθ − μcosθ) = {exact}");
+        assert!(
+            (a - exact).abs() < 1e-6 * G,
+            "{deg}°: a = {a}, expected g(sinθ − μcosθ) = {exact}"
+        );
     }
 }
 
@@ -64,13 +80,19 @@ fn disk_rolls_below_atan_3mu_and_slides_above() {
     for deg in [10.0, 25.0, 30.0] {
         let th = (deg as Real).to_radians();
         let (a, slip) = incline(deg, mu, true);
-        assert!((a - 2.0 / 3.0 * G * th.sin()).abs() < 1e-6 * G, "{deg}°: rolling a = {a}");
+        assert!(
+            (a - 2.0 / 3.0 * G * th.sin()).abs() < 1e-6 * G,
+            "{deg}°: rolling a = {a}"
+        );
         assert!(slip.abs() < 1e-9, "{deg}°: rolling without slip, slip = {slip}");
     }
     for deg in [35.0, 50.0] {
         let th = (deg as Real).to_radians();
         let (a, slip) = incline(deg, mu, true);
-        assert!((a - G * (th.sin() - mu * th.cos())).abs() < 1e-6 * G, "{deg}°: sliding a = {a}");
+        assert!(
+            (a - G * (th.sin() - mu * th.cos())).abs() < 1e-6 * G,
+            "{deg}°: sliding a = {a}"
+        );
         assert!(slip > 1e-3, "{deg}°: must slip, slip = {slip}");
     }
 }
@@ -98,7 +120,12 @@ fn rolling_resistance_holds_a_disk_below_atan_mu_r_and_brakes_its_rolling_above(
 fn bounce(e: Real, theta: Real) -> (Real, Real) {
     let mut s = State::new();
     s.insert(0.0, R + 0.01, R, 2600.0);
-    let p = CdParams { restitution_n: e, theta, dt: 2e-5, ..params() };
+    let p = CdParams {
+        restitution_n: e,
+        theta,
+        dt: 2e-5,
+        ..params()
+    };
     let mut w = World::new(p, s, vec![Wall::floor(0.0)], None).unwrap();
     for _ in 0..20000 {
         let before = w.state.vy[0];
@@ -117,7 +144,11 @@ fn bouncing_disk_returns_restitution() {
         for theta in [0.5, 1.0] {
             let (vin, vout) = bounce(e, theta);
             assert!(vin > 0.4, "impact speed {vin}");
-            assert!((vout / vin - e).abs() < 1e-9, "ε_n = {e}, θ = {theta}: returned {}", vout / vin);
+            assert!(
+                (vout / vin - e).abs() < 1e-9,
+                "ε_n = {e}, θ = {theta}: returned {}",
+                vout / vin
+            );
         }
     }
 }
@@ -135,13 +166,23 @@ fn resting_column_holds_without_drift_and_base_impulse_is_the_weight() {
     let h = p.dt;
     let mut w = World::new(p, s, vec![Wall::floor(0.0)], None).unwrap();
     w.run(2000).unwrap();
-    let drift = w.state.y.iter().zip(&y0).map(|(a, b)| (a - b).abs()).fold(0.0, Real::max);
+    let drift = w
+        .state
+        .y
+        .iter()
+        .zip(&y0)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, Real::max);
     assert!(drift < 1e-9 * 2.0 * R, "column drift {drift} m");
     assert!(w.state.vy.iter().all(|v| v.abs() < 1e-12), "column at rest");
     // impulse received by the floor body = M g h, downwards
     let floor_body = w.len();
     let base = -w.reaction[floor_body][1];
-    assert!((base - m * G * h).abs() < 1e-8 * m * G * h, "base impulse {base} vs weight·h {}", m * G * h);
+    assert!(
+        (base - m * G * h).abs() < 1e-8 * m * G * h,
+        "base impulse {base} vs weight·h {}",
+        m * G * h
+    );
     assert_eq!(w.stats.unconverged, 0);
 }
 
@@ -154,16 +195,33 @@ fn head_on_collisions_conserve_momentum_and_apply_restitution() {
             s.insert(r2 + 0.5e-4, 0.0, r2, 2600.0);
             s.vx[0] = v1;
             s.vx[1] = v2;
-            let p = CdParams { gravity: 0.0, restitution_n: e, dt: 2e-5, alert_fraction: 0.2, ..params() };
+            let p = CdParams {
+                gravity: 0.0,
+                restitution_n: e,
+                dt: 2e-5,
+                alert_fraction: 0.2,
+                ..params()
+            };
             let (m1, m2) = (s.m[0], s.m[1]);
             let p0 = m1 * v1 + m2 * v2;
             let mut w = World::new(p, s, vec![], None).unwrap();
             w.run(400).unwrap();
             let (u1, u2) = (w.state.vx[0], w.state.vx[1]);
             let p1 = m1 * u1 + m2 * u2;
-            assert!((p1 - p0).abs() < 1e-12 * (m1 * v1.abs() + m2 * v2.abs()), "momentum {p0} → {p1}");
-            assert!(((u2 - u1) - e * (v1 - v2)).abs() < 1e-9, "e = {e}: separation {} vs e·approach {}", u2 - u1, e * (v1 - v2));
-            assert!(w.state.vy.iter().chain(&w.state.w).all(|v| v.abs() < 1e-12), "head-on: no transverse motion");
+            assert!(
+                (p1 - p0).abs() < 1e-12 * (m1 * v1.abs() + m2 * v2.abs()),
+                "momentum {p0} → {p1}"
+            );
+            assert!(
+                ((u2 - u1) - e * (v1 - v2)).abs() < 1e-9,
+                "e = {e}: separation {} vs e·approach {}",
+                u2 - u1,
+                e * (v1 - v2)
+            );
+            assert!(
+                w.state.vy.iter().chain(&w.state.w).all(|v| v.abs() < 1e-12),
+                "head-on: no transverse motion"
+            );
         }
     }
 }
@@ -172,12 +230,30 @@ fn head_on_collisions_conserve_momentum_and_apply_restitution() {
 fn static_pile_interpenetration_stays_below_one_percent_of_d() {
     // 12 × 8 grains of d ∈ [0.8, 1.2] mm dropped by ≤ 9 mm: v_max ≈ √(2 g H) ≈ 0.45 m/s,
     // c.5 step h = 0.02 d_min / v_max ≈ 3.5e-5 s → one-impact penetration ≤ h v/2 ≈ 1 % d_min
-    let spec = DropSpec { ncol: 12, nrow: 8, scale: 1e-3, seed: 3 };
-    let p = CdParams { dt: 3.5e-5, ..CdParams::default() };
+    let spec = DropSpec {
+        ncol: 12,
+        nrow: 8,
+        scale: 1e-3,
+        seed: 3,
+    };
+    let p = CdParams {
+        dt: 3.5e-5,
+        ..CdParams::default()
+    };
     let r = drop(&spec, &p, 6000).unwrap();
-    eprintln!("pile: φ = {:.3}, max penetration {:.4} d, contacts {}, unconverged {} of {}, E_k/(Mgd) = {:.2e}",
-        r.packing_fraction, r.stats.max_penetration, r.contacts_last, r.stats.unconverged, r.stats.steps, r.ke_over_mgd);
+    eprintln!(
+        "pile: φ = {:.3}, max penetration {:.4} d, contacts {}, unconverged {} of {}, E_k/(Mgd) = {:.2e}",
+        r.packing_fraction, r.stats.max_penetration, r.contacts_last, r.stats.unconverged, r.stats.steps, r.ke_over_mgd
+    );
     assert!(r.ke_over_mgd < 1e-4, "pile at rest: E_k/(M g d̄) = {}", r.ke_over_mgd);
-    assert!(r.stats.max_penetration < 0.01, "interpenetration {} d ≥ 1 % d", r.stats.max_penetration);
-    assert!(r.contacts_last > 150, "a jammed pile has ≈ 2 contacts per grain: {}", r.contacts_last);
+    assert!(
+        r.stats.max_penetration < 0.01,
+        "interpenetration {} d ≥ 1 % d",
+        r.stats.max_penetration
+    );
+    assert!(
+        r.contacts_last > 150,
+        "a jammed pile has ≈ 2 contacts per grain: {}",
+        r.contacts_last
+    );
 }

@@ -36,7 +36,12 @@ fn block_with_a_dilute_front_needs_the_linking_gap() {
     let n = x.len();
     let r = vec![0.5; n];
     let m = vec![1.0; n];
-    let b = Body { x: &x, y: &y, half: &r, mass: &m };
+    let b = Body {
+        x: &x,
+        y: &y,
+        half: &r,
+        mass: &m,
+    };
     // Contact only: the front is the block's edge.
     let f = front(&b, Link::Contact { gap: 0.01 * d });
     assert!((f.length - 10.0).abs() < 1e-12, "L = {}", f.length);
@@ -70,7 +75,15 @@ fn sheared_cloud(theta_deg: f64, l0: f64, h0: f64, d: f64) -> Cloud {
         vy.push(-v * t.sin());
     }
     let n = x.len();
-    Cloud { t: 1.0, x, y, half: vec![0.5 * d; n], mass: vec![1.0; n], vx, vy }
+    Cloud {
+        t: 1.0,
+        x,
+        y,
+        half: vec![0.5 * d; n],
+        mass: vec![1.0; n],
+        vx,
+        vy,
+    }
 }
 
 #[test]
@@ -78,7 +91,11 @@ fn linear_velocity_field_gives_the_failure_angle() {
     for theta in [50.0, 55.0, 60.0] {
         let c = sheared_cloud(theta, 0.05, 0.04, 2.5e-4);
         let f = failure_line(&c, 0.05, 5e-4, 0.1).expect("a failure line");
-        assert!((f.angle_deg - theta).abs() < 1.0, "θ = {theta}: measured {}", f.angle_deg);
+        assert!(
+            (f.angle_deg - theta).abs() < 1.0,
+            "θ = {theta}: measured {}",
+            f.angle_deg
+        );
         assert!(f.r2 > 0.99);
     }
     // A vertical surface (the whole right half moving) reads 90°.
@@ -106,7 +123,11 @@ fn hexagonal_lattice_has_the_densest_packing_fraction() {
     // Every interior cell is the hexagon of area (√3/2) d².
     for i in 0..x.len() {
         if c.interior[i] && away(i) {
-            assert!((c.area[i] - 3f64.sqrt() / 2.0 * d * d).abs() < 1e-15, "cell {i}: {}", c.area[i]);
+            assert!(
+                (c.area[i] - 3f64.sqrt() / 2.0 * d * d).abs() < 1e-15,
+                "cell {i}: {}",
+                c.area[i]
+            );
         }
     }
     // A square lattice: π/4.
@@ -127,10 +148,26 @@ fn simple_shear_gives_the_analytic_inertial_number() {
     let rho = 2000.0;
     let m = rho * s * s;
     let gdot = 20.0;
-    let c = Cloud { t: 0.0, vx: y.iter().map(|y| gdot * y).collect(), vy: vec![0.0; n], x, y, half: vec![0.5 * s; n], mass: vec![m; n] };
+    let c = Cloud {
+        t: 0.0,
+        vx: y.iter().map(|y| gdot * y).collect(),
+        vy: vec![0.0; n],
+        x,
+        y,
+        half: vec![0.5 * s; n],
+        mass: vec![m; n],
+    };
     let g = 9.81;
     let cell = 3.0 * s;
-    let st = coarse_grained(&c, Grain { cell, d: s, rho_s: rho, g });
+    let st = coarse_grained(
+        &c,
+        Grain {
+            cell,
+            d: s,
+            rho_s: rho,
+            g,
+        },
+    );
     // Rows of cells from the top: the k-th cell row from the top has p = ρ g cell (k + ½).
     // Mass-weighted over the interior rows k = 1 .. nrow−2 (equal masses).
     let nrow = ny / 3;
@@ -142,12 +179,25 @@ fn simple_shear_gives_the_analytic_inertial_number() {
         cnt += 1.0;
     }
     expect /= cnt;
-    assert!((st.mean - expect).abs() < 1e-9 * expect, "mean I {} vs {}", st.mean, expect);
+    assert!(
+        (st.mean - expect).abs() < 1e-9 * expect,
+        "mean I {} vs {}",
+        st.mean,
+        expect
+    );
     assert!(st.flowing_fraction > 0.5);
     // A rigid translation does not flow.
     let mut c2 = c.clone();
     c2.vx = vec![0.3; n];
-    let st = coarse_grained(&c2, Grain { cell, d: s, rho_s: rho, g });
+    let st = coarse_grained(
+        &c2,
+        Grain {
+            cell,
+            d: s,
+            rho_s: rho,
+            g,
+        },
+    );
     assert_eq!(st.flowing_fraction, 0.0);
 }
 

@@ -28,7 +28,13 @@ fn race(t: &TempProject, cmds: &[&[&str]]) -> Vec<String> {
         .into_iter()
         .filter_map(|(c, ch)| {
             let out = ch.wait_with_output().unwrap();
-            (!out.status.success()).then(|| format!("`{c}` exit {:?}: {}", out.status.code(), String::from_utf8_lossy(&out.stderr)))
+            (!out.status.success()).then(|| {
+                format!(
+                    "`{c}` exit {:?}: {}",
+                    out.status.code(),
+                    String::from_utf8_lossy(&out.stderr)
+                )
+            })
         })
         .collect()
 }
@@ -59,10 +65,22 @@ fn two_processes_on_an_empty_cache() {
     let mut failures = Vec::new();
     for _ in 0..ROUNDS {
         let t = TempProject::new(SMALL);
-        failures.extend(race(&t, &[&["run", "--stage", "fig-a", "--quiet"], &["run", "--stage", "fig-a", "--quiet"]]));
+        failures.extend(race(
+            &t,
+            &[
+                &["run", "--stage", "fig-a", "--quiet"],
+                &["run", "--stage", "fig-a", "--quiet"],
+            ],
+        ));
         assert_cache_sound(&t);
     }
-    assert!(failures.is_empty(), "{} of {} runs failed:\n{}", failures.len(), 2 * ROUNDS, failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} runs failed:\n{}",
+        failures.len(),
+        2 * ROUNDS,
+        failures.join("\n")
+    );
 }
 
 #[test]
@@ -76,7 +94,13 @@ fn two_forced_processes_on_a_warm_cache() {
         failures.extend(race(&t, &[force, force]));
     }
     assert_cache_sound(&t);
-    assert!(failures.is_empty(), "{} of {} runs failed:\n{}", failures.len(), 2 * ROUNDS, failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} runs failed:\n{}",
+        failures.len(),
+        2 * ROUNDS,
+        failures.join("\n")
+    );
 }
 
 #[test]
@@ -95,7 +119,13 @@ fn four_processes_sharing_an_input() {
         ));
         assert_cache_sound(&t);
     }
-    assert!(failures.is_empty(), "{} of {} runs failed:\n{}", failures.len(), 4 * ROUNDS, failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} runs failed:\n{}",
+        failures.len(),
+        4 * ROUNDS,
+        failures.join("\n")
+    );
 }
 
 /// Finding 8: a reader that resolves a stage's published set sees the files of one run,
@@ -106,10 +136,20 @@ fn a_reader_never_sees_files_of_two_runs() {
     // The two sets the writers publish, made one at a time first.
     let mut sets = Vec::new();
     for seed in ["1", "2"] {
-        let (code, _, err) = t.cli(&["run", "--stage", "psd-a", "--quiet", "--set", &format!("psd-a.seed={seed}")]);
+        let (code, _, err) = t.cli(&[
+            "run",
+            "--stage",
+            "psd-a",
+            "--quiet",
+            "--set",
+            &format!("psd-a.seed={seed}"),
+        ]);
         assert_eq!(code, 0, "{err}");
         let dir = t.path().join("reports/quick");
-        sets.push((std::fs::read(dir.join("psd-a.csv")).unwrap(), std::fs::read(dir.join("psd-a.json")).unwrap()));
+        sets.push((
+            std::fs::read(dir.join("psd-a.csv")).unwrap(),
+            std::fs::read(dir.join("psd-a.json")).unwrap(),
+        ));
     }
     assert_ne!(sets[0].0, sets[1].0);
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -121,9 +161,16 @@ fn a_reader_never_sees_files_of_two_runs() {
             let (mut reads, mut mixed) = (0, 0);
             while !stop.load(std::sync::atomic::Ordering::Relaxed) {
                 // The documented way to read a consistent set: resolve the pointer once.
-                let Ok(target) = std::fs::read_link(root.join("psd-a")) else { continue };
+                let Ok(target) = std::fs::read_link(root.join("psd-a")) else {
+                    continue;
+                };
                 let dir = root.join(target);
-                let (Ok(csv), Ok(json)) = (std::fs::read(dir.join("psd-a.csv")), std::fs::read(dir.join("psd-a.json"))) else { continue };
+                let (Ok(csv), Ok(json)) = (
+                    std::fs::read(dir.join("psd-a.csv")),
+                    std::fs::read(dir.join("psd-a.json")),
+                ) else {
+                    continue;
+                };
                 reads += 1;
                 if !sets.iter().any(|(c, j)| *c == csv && *j == json) {
                     mixed += 1;
@@ -134,8 +181,28 @@ fn a_reader_never_sees_files_of_two_runs() {
     };
     for i in 0..ROUNDS {
         let seed = if i % 2 == 0 { "1" } else { "2" };
-        let a = spawn(&t, &["run", "--stage", "psd-a", "--quiet", "--set", &format!("psd-a.seed={seed}")]);
-        let b = spawn(&t, &["run", "--stage", "psd-a", "--quiet", "--set", &format!("psd-a.seed={}", if seed == "1" { "2" } else { "1" })]);
+        let a = spawn(
+            &t,
+            &[
+                "run",
+                "--stage",
+                "psd-a",
+                "--quiet",
+                "--set",
+                &format!("psd-a.seed={seed}"),
+            ],
+        );
+        let b = spawn(
+            &t,
+            &[
+                "run",
+                "--stage",
+                "psd-a",
+                "--quiet",
+                "--set",
+                &format!("psd-a.seed={}", if seed == "1" { "2" } else { "1" }),
+            ],
+        );
         for ch in [a, b] {
             let out = ch.wait_with_output().unwrap();
             assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

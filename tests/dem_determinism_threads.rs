@@ -9,7 +9,11 @@ use granrepro::dem::{DemParams, State, World};
 /// histories are exercised.
 fn packed() -> State {
     let mut s = hex_lattice(0.08, 0.07, 1.15e-3, 2500.0);
-    assert!(s.len() >= granrepro::dem::team::TEAM_MIN_GRAINS, "{} grains: too few to run in parallel", s.len());
+    assert!(
+        s.len() >= granrepro::dem::team::TEAM_MIN_GRAINS,
+        "{} grains: too few to run in parallel",
+        s.len()
+    );
     let mut rng = SplitMix64(7);
     for i in 0..s.len() {
         s.w[i] = 200.0 * (rng.next_f64() - 0.5);
@@ -26,7 +30,10 @@ fn fingerprint(s: &State, threads: usize) -> (Vec<u64>, Vec<u64>) {
 /// else the team steps every step.
 fn run_scene(s: &State, probe: bool) -> (Vec<u64>, Vec<u64>) {
     {
-        let p = DemParams { dt: 2e-7, ..DemParams::default() };
+        let p = DemParams {
+            dt: 2e-7,
+            ..DemParams::default()
+        };
         let mut w = World::new(p, s.clone(), box_walls(0.08), None).unwrap();
         w.team_probe = probe;
         w.run(1000).unwrap();
@@ -41,8 +48,17 @@ fn run_scene(s: &State, probe: bool) -> (Vec<u64>, Vec<u64>) {
             bits.extend(v.iter().map(|x| x.to_bits()));
         }
         let l = w.ledger;
-        let led = [l.normal_damping, l.tangential, l.rolling, l.wall_normal, l.wall_tangential, l.external_work]
-            .iter().map(|x| x.to_bits()).collect();
+        let led = [
+            l.normal_damping,
+            l.tangential,
+            l.rolling,
+            l.wall_normal,
+            l.wall_tangential,
+            l.external_work,
+        ]
+        .iter()
+        .map(|x| x.to_bits())
+        .collect();
         (bits, led)
     }
 }
@@ -66,5 +82,8 @@ fn side_by_side_worlds_on_a_shared_pool_match_one_thread() {
     let a = fingerprint(&s, 1);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let (b, c) = pool.install(|| rayon::join(|| run_scene(&s, false), || run_scene(&s, true)));
-    assert!(a == b && a == c, "a world run beside another differs from the one-thread run");
+    assert!(
+        a == b && a == c,
+        "a world run beside another differs from the one-thread run"
+    );
 }

@@ -12,15 +12,34 @@ fn column_collapse_energy_balance() {
     // quick profile: stiffness / 100, Δt × 10 (all time-scale ratios kept)
     let p = DemParams::default().softened(0.01);
     let col = hex_column(0.02, 0.02, 1.15e-3, &p, 0.05).unwrap();
-    eprintln!("hex column: {} grains, φ = {:.3}, H0 = {:.4}", col.state.len(), col.packing_fraction, col.h0);
-    let cp = CollapseParams { t_max: 4.0, sample_every: 0.05, snapshots: vec![1.0], ..CollapseParams::default() };
+    eprintln!(
+        "hex column: {} grains, φ = {:.3}, H0 = {:.4}",
+        col.state.len(),
+        col.packing_fraction,
+        col.h0
+    );
+    let cp = CollapseParams {
+        t_max: 4.0,
+        sample_every: 0.05,
+        snapshots: vec![1.0],
+        ..CollapseParams::default()
+    };
     let r = collapse(&col, &p, &cp).unwrap();
     let e0 = r.samples[0].ep + r.samples[0].elastic;
     let worst = r.samples.iter().map(|s| s.residual.abs()).fold(0.0, f64::max);
     let last = r.samples.last().unwrap();
-    eprintln!("steps {} wall {:.2}s stop {:?}; worst residual {:.3e} E0; Wc {:.3e} Wf {:.3e} (rolling {:.3e}) wall {:.3e}; ΔL {:.3}",
-        r.steps, r.wall_s, r.stop, worst / e0, last.ledger.collisional() / e0, last.ledger.frictional() / e0, last.ledger.rolling / e0,
-        (last.ledger.wall_normal + last.ledger.wall_tangential) / e0, r.delta_l());
+    eprintln!(
+        "steps {} wall {:.2}s stop {:?}; worst residual {:.3e} E0; Wc {:.3e} Wf {:.3e} (rolling {:.3e}) wall {:.3e}; ΔL {:.3}",
+        r.steps,
+        r.wall_s,
+        r.stop,
+        worst / e0,
+        last.ledger.collisional() / e0,
+        last.ledger.frictional() / e0,
+        last.ledger.rolling / e0,
+        (last.ledger.wall_normal + last.ledger.wall_tangential) / e0,
+        r.delta_l()
+    );
     assert!(worst < 0.01 * e0, "energy balance residual {worst} > 1 % of E0 {e0}");
     // D07 identity with E_d from eq 4.12
     let ed = e0 - last.ep - last.ekx - last.eky;
@@ -47,7 +66,12 @@ fn restitution_ledger_books_collision_loss() {
     w.run(2000).unwrap();
     let b = w.balance();
     let e_out = b.energies.ek();
-    eprintln!("Ek ratio {:.5}, booked {:.6e} vs lost {:.6e}", e_out / e_in, w.ledger.wall_normal, e_in - e_out);
+    eprintln!(
+        "Ek ratio {:.5}, booked {:.6e} vs lost {:.6e}",
+        e_out / e_in,
+        w.ledger.wall_normal,
+        e_in - e_out
+    );
     // the dashpot power is booked with the half-step velocity the force is computed from
     // (LAMMPS convention), an O(Δt) estimate: ≈ 0.5 % of E_in at 43 steps per collision
     assert!(((e_in - e_out) - w.ledger.wall_normal).abs() < 1e-2 * e_in);

@@ -3,7 +3,9 @@
 //! friction is applied (dense μ_prep = 0 vs loose μ_prep = 0.53; φ reported).
 
 use granrepro::dem::DemParams;
-use granrepro::dem::prep::{DepositionParams, deposited_column, diameters_uniform_by_area, hex_lattice, packing_fraction};
+use granrepro::dem::prep::{
+    DepositionParams, deposited_column, diameters_uniform_by_area, hex_lattice, packing_fraction,
+};
 
 #[test]
 fn hex_lattice_is_touching_and_dense() {
@@ -17,12 +19,27 @@ fn hex_lattice_is_touching_and_dense() {
 fn deposition_settles_with_prep_friction() {
     // quick profile (k/100) so the test stays short; 200 grains in a 15 d̄ wide box
     let run = DemParams::default().softened(0.01);
-    let radii: Vec<f64> = diameters_uniform_by_area(200, 0.92e-3, 1.38e-3, 11).iter().map(|d| 0.5 * d).collect();
+    let radii: Vec<f64> = diameters_uniform_by_area(200, 0.92e-3, 1.38e-3, 11)
+        .iter()
+        .map(|d| 0.5 * d)
+        .collect();
     let mut phis = vec![];
     for mu in [0.0, 0.53] {
-        let dep = DepositionParams { prep_friction: Some(mu), softening: 1.0, max_settle_time: 0.1, ..DepositionParams::default() };
+        let dep = DepositionParams {
+            prep_friction: Some(mu),
+            softening: 1.0,
+            max_settle_time: 0.1,
+            ..DepositionParams::default()
+        };
         let col = deposited_column(&radii, 0.0175, 0.009, &run, &dep).unwrap();
-        eprintln!("μ_prep = {mu}: {} grains, φ = {:.4} (core {:.4}), H0 = {:.4}, settle {:?}", col.state.len(), col.packing_fraction, col.packing_fraction_core, col.h0, col.settle);
+        eprintln!(
+            "μ_prep = {mu}: {} grains, φ = {:.4} (core {:.4}), H0 = {:.4}, settle {:?}",
+            col.state.len(),
+            col.packing_fraction,
+            col.packing_fraction_core,
+            col.h0,
+            col.settle
+        );
         assert!(col.settle.converged, "not settled: {:?}", col.settle);
         assert!(col.packing_fraction > 0.70 && col.packing_fraction < 0.90);
         phis.push(col.packing_fraction);

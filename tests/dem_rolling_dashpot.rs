@@ -16,7 +16,10 @@ use granrepro::math::Real;
 const RHO: Real = 2500.0;
 
 fn dashpot_only() -> DemParams {
-    let mut p = DemParams { gravity: 0.0, ..DemParams::default() };
+    let mut p = DemParams {
+        gravity: 0.0,
+        ..DemParams::default()
+    };
     p.grain.friction = 0.0;
     p.wall.friction = 0.0;
     p.rolling.kr = 1e-12; // the spring moment is ~1e-21 N·m: nothing but the dashpot acts
@@ -24,7 +27,9 @@ fn dashpot_only() -> DemParams {
     p
 }
 
-fn inertia(r: Real) -> Real { 0.5 * RHO * std::f64::consts::PI * r * r * r * r }
+fn inertia(r: Real) -> Real {
+    0.5 * RHO * std::f64::consts::PI * r * r * r * r
+}
 
 /// Two touching grains (overlap 1e-9 m) with spins w1, w2.
 fn pair(r1: Real, r2: Real, w1: Real, w2: Real) -> World {
@@ -37,8 +42,14 @@ fn pair(r1: Real, r2: Real, w1: Real, w2: Real) -> World {
     World::new(dashpot_only(), s, vec![], None).unwrap()
 }
 
-fn angular_momentum(w: &World) -> Real { (0..w.state.len()).map(|i| w.state.inertia[i] * w.state.w[i]).sum() }
-fn e_rot(w: &World) -> Real { (0..w.state.len()).map(|i| 0.5 * w.state.inertia[i] * w.state.w[i] * w.state.w[i]).sum() }
+fn angular_momentum(w: &World) -> Real {
+    (0..w.state.len()).map(|i| w.state.inertia[i] * w.state.w[i]).sum()
+}
+fn e_rot(w: &World) -> Real {
+    (0..w.state.len())
+        .map(|i| 0.5 * w.state.inertia[i] * w.state.w[i] * w.state.w[i])
+        .sum()
+}
 
 #[test]
 fn unequal_pair_relaxes_to_the_common_spin_and_conserves_angular_momentum() {
@@ -54,12 +65,20 @@ fn unequal_pair_relaxes_to_the_common_spin_and_conserves_angular_momentum() {
         w.step().unwrap();
         let l = angular_momentum(&w);
         assert!((l - l0).abs() <= 1e-12 * l0, "step {step}: ΣIω = {l:e}, was {l0:e}");
-        assert!(e_rot(&w) <= e0 * (1.0 + 1e-12), "step {step}: E_rot rose from {e0:e} to {:e}", e_rot(&w));
+        assert!(
+            e_rot(&w) <= e0 * (1.0 + 1e-12),
+            "step {step}: E_rot rose from {e0:e} to {:e}",
+            e_rot(&w)
+        );
     }
     // c_r h/I_eff ≈ 50 per half step: after a few steps both spin together (backward
     // Euler of u̇ = −c_r u/I_eff leaves u ≈ u_0/(1+50)^10).
     for i in 0..2 {
-        assert!((w.state.w[i] - common).abs() < 1e-6 * common, "grain {i}: ω = {}, common spin {common}", w.state.w[i]);
+        assert!(
+            (w.state.w[i] - common).abs() < 1e-6 * common,
+            "grain {i}: ω = {}, common spin {common}",
+            w.state.w[i]
+        );
     }
 }
 
@@ -102,9 +121,15 @@ fn ring_of_unequal_grains_never_gains_rotational_energy() {
     for step in 0..10 {
         w.step().unwrap();
         let e = e_rot(&w);
-        assert!(e <= e_prev * (1.0 + 1e-12), "step {step}: E_rot rose {e_prev:e} → {e:e}");
+        assert!(
+            e <= e_prev * (1.0 + 1e-12),
+            "step {step}: E_rot rose {e_prev:e} → {e:e}"
+        );
         let l = angular_momentum(&w);
-        assert!((l - l0).abs() <= 1e-12 * e0.sqrt() * 1e-3 + 1e-12 * l0.abs(), "step {step}: ΣIω {l0:e} → {l:e}");
+        assert!(
+            (l - l0).abs() <= 1e-12 * e0.sqrt() * 1e-3 + 1e-12 * l0.abs(),
+            "step {step}: ΣIω {l0:e} → {l:e}"
+        );
         e_prev = e;
     }
     // the dashpot drives the ring toward rigid co-rotation at the common spin L/ΣI, whose
@@ -112,8 +137,14 @@ fn ring_of_unequal_grains_never_gains_rotational_energy() {
     let i_tot: Real = w.state.inertia.iter().sum();
     let e_min = l0 * l0 / (2.0 * i_tot);
     eprintln!("ring: E_rot {e0:e} → {e_prev:e}, floor {e_min:e}");
-    assert!(e_prev >= e_min * (1.0 - 1e-9), "E_rot {e_prev:e} below the rigid-rotation floor {e_min:e}");
-    assert!(e_prev - e_min < 0.5 * (e0 - e_min), "E_rot {e_prev:e}: less than half of the excess over {e_min:e} dissipated");
+    assert!(
+        e_prev >= e_min * (1.0 - 1e-9),
+        "E_rot {e_prev:e} below the rigid-rotation floor {e_min:e}"
+    );
+    assert!(
+        e_prev - e_min < 0.5 * (e0 - e_min),
+        "E_rot {e_prev:e}: less than half of the excess over {e_min:e} dissipated"
+    );
 }
 
 #[test]
@@ -127,7 +158,11 @@ fn dashpot_dissipation_is_booked_in_the_ledger() {
     // without friction rotation is decoupled from translation: what the dashpot books is
     // exactly the rotational energy it removed
     let drop = erot0 - e_rot(&w);
-    assert!(drop > 0.0 && (b.ledger.rolling - drop).abs() <= 1e-9 * drop, "booked {:e}, E_rot fell by {drop:e}", b.ledger.rolling);
+    assert!(
+        drop > 0.0 && (b.ledger.rolling - drop).abs() <= 1e-9 * drop,
+        "booked {:e}, E_rot fell by {drop:e}",
+        b.ledger.rolling
+    );
     assert!(b.residual.abs() < 1e-5 * e0, "residual {:e} of E_0 {e0:e}", b.residual);
 }
 
@@ -154,8 +189,15 @@ fn capped_model_limits_spring_plus_dashpot_to_the_rolling_cap() {
     let cap = 0.01 * (r1 * r2 / (r1 + r2)) * 1.6e8 * 1e-7;
     let capped = impulse(granrepro::dem::RollingModel::Capped);
     let epsd = impulse(granrepro::dem::RollingModel::Epsd);
-    eprintln!("angular impulse in one step: capped {capped:e}, epsd {epsd:e}, Δt·cap {:e}", dt * cap);
-    assert!(capped <= 1.05 * dt * cap, "capped model passed {capped:e} > Δt·cap = {:e}", dt * cap);
+    eprintln!(
+        "angular impulse in one step: capped {capped:e}, epsd {epsd:e}, Δt·cap {:e}",
+        dt * cap
+    );
+    assert!(
+        capped <= 1.05 * dt * cap,
+        "capped model passed {capped:e} > Δt·cap = {:e}",
+        dt * cap
+    );
     assert!(capped > 0.5 * dt * cap, "the cap should be reached: {capped:e}");
     assert!(epsd > 10.0 * dt * cap, "EPSD dashpot is uncapped: {epsd:e}");
 }

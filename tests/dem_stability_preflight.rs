@@ -5,7 +5,13 @@
 use granrepro::dem::{DemError, DemParams, RollingDamping, SizeClasses, State, Wall, World, preflight};
 use granrepro::math::{PI, Real, Vec2};
 
-fn column_sizes() -> SizeClasses { SizeClasses { r_min: 0.46e-3, r_mean: 0.575e-3, r_max: 0.69e-3 } }
+fn column_sizes() -> SizeClasses {
+    SizeClasses {
+        r_min: 0.46e-3,
+        r_mean: 0.575e-3,
+        r_max: 0.69e-3,
+    }
+}
 
 #[test]
 fn chapter_step_is_audited_and_default_accepted() {
@@ -14,7 +20,13 @@ fn chapter_step_is_audited_and_default_accepted() {
     let table = pf.to_string();
     eprintln!("{table}");
     // translational collision, wall, multi-contact, tangential and rolling rows present
-    for key in ["collision grain-grain (d_min pair)", "collision grain-wall", "multi-contact normal", "tangential pair", "rolling dashpot relaxation"] {
+    for key in [
+        "collision grain-grain (d_min pair)",
+        "collision grain-wall",
+        "multi-contact normal",
+        "tangential pair",
+        "rolling dashpot relaxation",
+    ] {
         assert!(table.contains(key), "row {key} missing");
     }
     // figures.md §c.1: min–min t_c = 7.19e-6 s with eq 4.5's γ; ours (ζ exact) is within 1 %
@@ -24,7 +36,10 @@ fn chapter_step_is_audited_and_default_accepted() {
 
 #[test]
 fn too_large_step_is_refused_with_numbers() {
-    let p = DemParams { dt: 5e-6, ..DemParams::default() };
+    let p = DemParams {
+        dt: 5e-6,
+        ..DemParams::default()
+    };
     let err = preflight(&p, column_sizes(), true, p.dt).unwrap_err();
     let msg = err.to_string();
     eprintln!("{msg}");
@@ -48,7 +63,9 @@ fn explicit_rolling_damping_is_refused() {
     assert!(msg.contains("rolling"), "{msg}");
     assert!(msg.contains("implicit"), "{msg}");
     // the explicit limit is 2 I_eff / c_r ≈ 1.76e-9 s for a d_min pair (figures.md §c.2)
-    if let DemError::StepTooLarge { limit, .. } = err { assert!(limit < 2e-9 && limit > 1.5e-9, "{limit}"); }
+    if let DemError::StepTooLarge { limit, .. } = err {
+        assert!(limit < 2e-9 && limit > 1.5e-9, "{limit}");
+    }
 }
 
 /// Grain resting on the floor with a spin kick, run at the default step.
@@ -71,7 +88,10 @@ fn spinning_grain(damping: RollingDamping) -> Result<Real, DemError> {
 fn explicit_dashpot_blows_up_implicit_is_stable() {
     let bad = spinning_grain(RollingDamping::Explicit);
     eprintln!("explicit: {bad:?}");
-    assert!(matches!(bad, Err(DemError::NonFinite { .. }) | Err(DemError::EnergyRise { .. })), "{bad:?}");
+    assert!(
+        matches!(bad, Err(DemError::NonFinite { .. }) | Err(DemError::EnergyRise { .. })),
+        "{bad:?}"
+    );
     let good = spinning_grain(RollingDamping::Implicit).unwrap();
     eprintln!("implicit: final speed {good:e} m/s");
     assert!(good.is_finite() && good < 1.0);

@@ -8,7 +8,12 @@ use granrepro::math::{PI, Real, Vec2};
 
 const R: Real = 0.575e-3; // mean grain of table 4.2
 
-fn no_gravity() -> DemParams { DemParams { gravity: 0.0, ..DemParams::default() } }
+fn no_gravity() -> DemParams {
+    DemParams {
+        gravity: 0.0,
+        ..DemParams::default()
+    }
+}
 
 /// Rebound/impact speed ratio of one grain thrown at the floor.
 fn wall_restitution(p: DemParams) -> Real {
@@ -21,7 +26,9 @@ fn wall_restitution(p: DemParams) -> Real {
     // run until the grain is clear of the floor again
     for _ in 0..100_000 {
         w.step().unwrap();
-        if w.state.vy[0] > 0.0 && w.state.y[0] > R * 1.0005 { break; }
+        if w.state.vy[0] > 0.0 && w.state.y[0] > R * 1.0005 {
+            break;
+        }
     }
     w.state.vy[0] / v_in
 }
@@ -48,7 +55,9 @@ fn restitution_grain_on_grain() {
     let mut w = World::new(p, s, vec![], None).unwrap();
     for _ in 0..100_000 {
         w.step().unwrap();
-        if w.state.x[1] - w.state.x[0] > 2.0 * R * 1.0005 && w.state.vx[1] > 0.0 { break; }
+        if w.state.x[1] - w.state.x[0] > 2.0 * R * 1.0005 && w.state.vx[1] > 0.0 {
+            break;
+        }
     }
     let e = (w.state.vx[1] - w.state.vx[0]) / (2.0 * v);
     eprintln!("pair restitution = {e:.5}");
@@ -91,7 +100,12 @@ fn incline(mu: Real) -> (Real, Real, Real, Real) {
     // clockwise rotation rolls the disk downhill (to the right)
     let alpha = -2.0 * quad_coeff(&ts, &th) * r / g;
     let f = w.info.wall_force[0];
-    (a, alpha, f.dot(&n) / (-m * g * beta.cos()), f.dot(&down).abs() / (m * g))
+    (
+        a,
+        alpha,
+        f.dot(&n) / (-m * g * beta.cos()),
+        f.dot(&down).abs() / (m * g),
+    )
 }
 
 /// Coefficient c of the least-squares fit y ≈ a + b t + c t².
@@ -166,13 +180,21 @@ fn rolling_resistance_holds_grain_below_threshold() {
 #[test]
 fn settled_layer_floor_reaction_equals_weight() {
     // x-periodic strip (no side walls, so no Janssen arching), 3 hex rows of 20 grains
-    let p = DemParams { dt: 2e-7, ..DemParams::default() };
+    let p = DemParams {
+        dt: 2e-7,
+        ..DemParams::default()
+    };
     let lx = 40.0 * R * 1.02;
     let mut s = State::new();
     for row in 0..3 {
         for k in 0..20 {
             let rr = if (k + row) % 2 == 0 { R } else { 0.9 * R };
-            s.insert((k as Real + 0.5 * (row % 2) as Real) * 2.0 * R * 1.02, R * (1.05 + 2.0 * row as Real), rr, p.density);
+            s.insert(
+                (k as Real + 0.5 * (row % 2) as Real) * 2.0 * R * 1.02,
+                R * (1.05 + 2.0 * row as Real),
+                rr,
+                p.density,
+            );
         }
     }
     let weight = s.total_mass() * p.gravity;
@@ -200,14 +222,24 @@ fn elastic_frictionless_gas_energy_drift_is_bounded() {
     let mut k = 0;
     for iy in 0..6 {
         for ix in 0..6 {
-            let id = s.insert(R * (2.0 + 3.0 * ix as Real), R * (2.0 + 3.0 * iy as Real), R * (0.8 + 0.04 * k as Real % 0.4), p.density);
+            let id = s.insert(
+                R * (2.0 + 3.0 * ix as Real),
+                R * (2.0 + 3.0 * iy as Real),
+                R * (0.8 + 0.04 * k as Real % 0.4),
+                p.density,
+            );
             let a = 1.3 * k as Real;
             s.vx[id.0 as usize] = 0.3 * a.cos();
             s.vy[id.0 as usize] = 0.3 * a.sin();
             k += 1;
         }
     }
-    let walls = vec![Wall::floor(0.0), Wall::left(0.0), Wall::right("right", 19.0 * R), Wall::ceiling("top", 19.0 * R)];
+    let walls = vec![
+        Wall::floor(0.0),
+        Wall::left(0.0),
+        Wall::right("right", 19.0 * R),
+        Wall::ceiling("top", 19.0 * R),
+    ];
     let mut w = World::new(p, s, walls, None).unwrap();
     let e0 = w.energies().total();
     let mut worst: Real = 0.0;
@@ -234,12 +266,26 @@ fn contact_history_survives_neighbor_rebuilds() {
         w.walls[2].active = false;
         for _ in 0..20 {
             w.run(100).unwrap();
-            if extra { w.rebuild(); }
+            if extra {
+                w.rebuild();
+            }
         }
         let mut hs: Vec<_> = w.contact_histories().filter(|(_, h)| h.tangential != 0.0).collect();
         hs.sort_by_key(|(k, _)| *k);
-        let h = hs.iter().map(|(k, h)| (k.i, k.j, h.tangential.to_bits(), h.rolling.to_bits())).collect::<Vec<_>>();
-        (w.state.x.iter().chain(&w.state.w).map(|v| v.to_bits()).collect::<Vec<_>>(), h, w.rebuilds())
+        let h = hs
+            .iter()
+            .map(|(k, h)| (k.i, k.j, h.tangential.to_bits(), h.rolling.to_bits()))
+            .collect::<Vec<_>>();
+        (
+            w.state
+                .x
+                .iter()
+                .chain(&w.state.w)
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>(),
+            h,
+            w.rebuilds(),
+        )
     };
     let (a, ha, na) = run(false);
     let (b, hb, nb) = run(true);
@@ -281,7 +327,10 @@ fn moving_plate_meets_a_grain_on_time() {
     let k = first.expect("the plate passed through the grain");
     let expected = gap / (v * dt);
     eprintln!("first contact at step {k}, expected {expected:.1}");
-    assert!((k as Real - expected).abs() <= 1.5, "first contact at step {k}, expected {expected:.1}");
+    assert!(
+        (k as Real - expected).abs() <= 1.5,
+        "first contact at step {k}, expected {expected:.1}"
+    );
     assert!(w.info.wall_force[0].y > 0.0, "the grain pushes the plate up");
 }
 
@@ -292,7 +341,10 @@ fn grains_moved_by_hand_are_seen_by_the_next_run() {
     // contacts from its first force evaluation, as a world built at the new positions
     // does — bit for bit. (Before the run checked the lists, the first evaluation used
     // the stale pair list: no force between the two grains for the first half kick.)
-    let p = DemParams { gravity: 0.0, ..DemParams::default() };
+    let p = DemParams {
+        gravity: 0.0,
+        ..DemParams::default()
+    };
     let place = |s: &mut State| {
         // grain 1 onto grain 0; grain 2 onto the floor
         (s.x[1], s.y[1]) = (s.x[0] + 1.9 * R, s.y[0]);
@@ -312,7 +364,19 @@ fn grains_moved_by_hand_are_seen_by_the_next_run() {
     // (nothing moved in the edited world's first 10 steps: at rest, no gravity, apart)
     let mut fresh = World::new(p, s2, vec![Wall::floor(0.0)], None).unwrap();
     fresh.run(50).unwrap();
-    let bits = |w: &World| w.state.x.iter().chain(&w.state.y).chain(&w.state.vx).chain(&w.state.vy).map(|v| v.to_bits()).collect::<Vec<_>>();
-    assert!(edited.state.vx[1] > 0.0 && edited.state.vy[2] > 0.0, "contacts not felt");
+    let bits = |w: &World| {
+        w.state
+            .x
+            .iter()
+            .chain(&w.state.y)
+            .chain(&w.state.vx)
+            .chain(&w.state.vy)
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+    };
+    assert!(
+        edited.state.vx[1] > 0.0 && edited.state.vy[2] > 0.0,
+        "contacts not felt"
+    );
     assert_eq!(bits(&edited), bits(&fresh));
 }

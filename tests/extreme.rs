@@ -12,7 +12,9 @@
 
 use std::path::{Path, PathBuf};
 
-fn catalogue() -> PathBuf { Path::new(env!("CARGO_MANIFEST_DIR")).join("stages/extreme") }
+fn catalogue() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("stages/extreme")
+}
 
 /// Every scene in the catalogue has a test below (a new file without one fails here).
 #[test]
@@ -25,7 +27,10 @@ fn every_catalogue_scene_is_tested() {
     files.sort();
     let mut tested: Vec<String> = TESTED.iter().map(|s| format!("{s}.yaml")).collect();
     tested.sort();
-    assert_eq!(files, tested, "stages/extreme/*.yaml and the tests in tests/extreme.rs differ");
+    assert_eq!(
+        files, tested,
+        "stages/extreme/*.yaml and the tests in tests/extreme.rs differ"
+    );
 }
 
 /// Run one scene and check its stated expectation.
@@ -33,12 +38,20 @@ fn check(name: &str) {
     let file = catalogue().join(format!("{name}.yaml"));
     let text = std::fs::read_to_string(&file).unwrap();
     let first = text.lines().next().unwrap_or("");
-    let expect = first.strip_prefix("# expect: ").unwrap_or_else(|| panic!("{name}: first line must be `# expect: …`"));
+    let expect = first
+        .strip_prefix("# expect: ")
+        .unwrap_or_else(|| panic!("{name}: first line must be `# expect: …`"));
     let out = tempfile::tempdir().unwrap();
     let dir = out.path().join("out");
     let t0 = std::time::Instant::now();
     let r = std::process::Command::new(env!("CARGO_BIN_EXE_granrepro"))
-        .args(["simulate", file.to_str().unwrap(), "--out", dir.to_str().unwrap(), "--quiet"])
+        .args([
+            "simulate",
+            file.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+            "--quiet",
+        ])
         .output()
         .unwrap();
     let code = r.status.code().unwrap_or(-1);
@@ -47,11 +60,25 @@ fn check(name: &str) {
     let mut parts = expect.split(" | ");
     match parts.next().unwrap().trim() {
         "refused" => {
-            assert_eq!(code, 2, "{name}: expected a refusal at validation (exit 2), got {code}\n{err}");
-            assert!(!dir.exists() || std::fs::read_dir(&dir).unwrap().next().is_none(), "{name}: refused but wrote {}", dir.display());
-            assert!(err.contains(&format!("{name}.yaml")), "{name}: the message must name the file\n{err}");
+            assert_eq!(
+                code, 2,
+                "{name}: expected a refusal at validation (exit 2), got {code}\n{err}"
+            );
+            assert!(
+                !dir.exists() || std::fs::read_dir(&dir).unwrap().next().is_none(),
+                "{name}: refused but wrote {}",
+                dir.display()
+            );
+            assert!(
+                err.contains(&format!("{name}.yaml")),
+                "{name}: the message must name the file\n{err}"
+            );
             for needle in parts {
-                assert!(err.contains(needle.trim()), "{name}: message lacks `{}`\n{err}", needle.trim());
+                assert!(
+                    err.contains(needle.trim()),
+                    "{name}: message lacks `{}`\n{err}",
+                    needle.trim()
+                );
             }
         }
         "runs" => {
@@ -62,7 +89,9 @@ fn check(name: &str) {
     }
 }
 
-fn json(p: &Path) -> serde_json::Value { serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap() }
+fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
 
 /// The energy bound of a completed run, per engine.
 fn energy_bound(name: &str, reports: &Path) {
@@ -72,10 +101,18 @@ fn energy_bound(name: &str, reports: &Path) {
     if name.starts_with("dem-") {
         // D07: E_0 = E_p + E_k + E_rot + elastic + dissipated within 1 % at every sample
         let j = json(&dem);
-        let c = j["checks"].as_array().unwrap().iter().find(|c| c["id"] == "energy-balance").expect("energy-balance check");
+        let c = j["checks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["id"] == "energy-balance")
+            .expect("energy-balance check");
         let res = c["ours"].as_f64().unwrap();
         eprintln!("{name}: max |balance residual|/E_0 = {res:.2e}");
-        assert!(c["pass"].as_bool().unwrap() && res <= 0.01, "{name}: energy balance {res}");
+        assert!(
+            c["pass"].as_bool().unwrap() && res <= 0.01,
+            "{name}: energy balance {res}"
+        );
         assert!(j["scalars"]["max_overlap_fraction"].as_f64().unwrap() < 0.05);
     } else if name.starts_with("mpm-") {
         // the MPM watchdog bound: E_p + E_k + E_el + plastic + wall work ≤ E(0) + 5 % E_p(0)
@@ -83,15 +120,29 @@ fn energy_bound(name: &str, reports: &Path) {
         let mut lines = t.lines();
         let head: Vec<&str> = lines.next().unwrap().split(',').collect();
         let col = |k: &str| head.iter().position(|h| *h == k).unwrap();
-        let idx: Vec<usize> = ["ep_j", "ek_j", "elastic_j", "plastic_work_j", "wall_friction_work_j"].iter().map(|k| col(k)).collect();
-        let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+        let idx: Vec<usize> = ["ep_j", "ek_j", "elastic_j", "plastic_work_j", "wall_friction_work_j"]
+            .iter()
+            .map(|k| col(k))
+            .collect();
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
         let total = |r: &Vec<f64>| idx.iter().map(|&i| r[i]).sum::<f64>();
         let (e0, ep0) = (total(&rows[0]), rows[0][col("ep_j")]);
         let rise = rows.iter().map(|r| (total(r) - e0) / ep0).fold(f64::MIN, f64::max);
-        eprintln!("{name}: max energy rise / E_p(0) = {rise:.2e} over {} samples", rows.len());
-        assert!(rise <= 0.05 && rows.iter().all(|r| r.iter().all(|x| x.is_finite())), "{name}: energy rise {rise}");
+        eprintln!(
+            "{name}: max energy rise / E_p(0) = {rise:.2e} over {} samples",
+            rows.len()
+        );
+        assert!(
+            rise <= 0.05 && rows.iter().all(|r| r.iter().all(|x| x.is_finite())),
+            "{name}: energy rise {rise}"
+        );
         let j = json(&dem);
-        assert!(j["scalars"]["t_end_over_tau_c"].as_f64().unwrap() >= 0.99, "{name}: did not reach its end time");
+        assert!(
+            j["scalars"]["t_end_over_tau_c"].as_f64().unwrap() >= 0.99,
+            "{name}: did not reach its end time"
+        );
     } else if name.starts_with("cd-") {
         // Moreau–Jean (θ = ½) books every impulse's work; the run's own watchdog stops any
         // rise above 1e-3 E (exit 1). Here: all variants converged and stayed within the
@@ -104,7 +155,10 @@ fn energy_bound(name: &str, reports: &Path) {
             let r: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
             assert_eq!(r[col("unconverged_steps")], 0.0, "{name}: unconverged steps");
             assert!(r[col("max_penetration_d")] < 0.01, "{name}: penetration");
-            assert!(r[col("dissipated_j_m")] > 0.0 && r[col("ek_final_over_ek0")] < 1.0, "{name}: energy");
+            assert!(
+                r[col("dissipated_j_m")] > 0.0 && r[col("ek_final_over_ek0")] < 1.0,
+                "{name}: energy"
+            );
         }
     } else {
         panic!("{name}: unknown engine prefix");
@@ -149,13 +203,20 @@ scenes! {
 fn refused_frictionless_mpm_base_really_leaves_the_grid() {
     use granrepro::mpm::column::{CollapseOptions, ColumnSpec, build, run_collapse};
     use granrepro::mpm::{MpmError, MpmParams};
-    let p = MpmParams { wall_friction: 0.0, ..MpmParams::quick() };
+    let p = MpmParams {
+        wall_friction: 0.0,
+        ..MpmParams::quick()
+    };
     let spec = ColumnSpec::from_area(0.4, 1.0e-3);
     assert!(granrepro::mpm::preflight::containment(&p, spec).is_err());
     // forced past validation (no geostatic stage: release at once)
     let mut col = build(&p, spec).unwrap();
     granrepro::mpm::column::release(&mut col);
-    let opts = CollapseOptions { max_time_tau: 60.0, min_time_tau: 59.0, ..CollapseOptions::default() };
+    let opts = CollapseOptions {
+        max_time_tau: 60.0,
+        min_time_tau: 59.0,
+        ..CollapseOptions::default()
+    };
     let r = run_collapse(col, None, &p, &opts);
     eprintln!("{:?}", r.as_ref().map(|r| r.runout).map_err(|e| e.to_string()));
     assert!(matches!(r, Err(MpmError::LeftGrid { .. })), "{:?}", r.map(|r| r.runout));
@@ -175,7 +236,12 @@ fn bed(p: DemParams, steps: u64) -> World {
     for row in 0..3 {
         for col in 0..8 {
             let x = (2.0 * col as f64 + (row % 2) as f64) * 1.01 * r + r;
-            s.insert(x, r + row as f64 * 1.9 * r, r * (1.0 - 0.01 * (col % 3) as f64), p.density);
+            s.insert(
+                x,
+                r + row as f64 * 1.9 * r,
+                r * (1.0 - 0.01 * (col % 3) as f64),
+                p.density,
+            );
             let k = s.len() - 1;
             s.vx[k] = 0.05 * ((k % 5) as f64 - 2.0);
             s.w[k] = 10.0 * ((k % 3) as f64 - 1.0);
@@ -194,7 +260,10 @@ fn a_scene_without_rolling_or_ledger_never_runs_those_paths() {
     off.ledger = false;
     let w = bed(off.clone(), steps);
     eprintln!("off: {:?}", w.paths);
-    assert_eq!((w.paths.rolling_forces, w.paths.rolling_dashpot, w.paths.ledger), (0, 0, 0));
+    assert_eq!(
+        (w.paths.rolling_forces, w.paths.rolling_dashpot, w.paths.ledger),
+        (0, 0, 0)
+    );
     // the counters do count: every force pass (steps + the initial one) and two dashpot
     // sweeps per step when the terms are on
     let on = bed(DemParams::default(), steps);

@@ -60,12 +60,18 @@ fn plot_and_compare_run_on_the_quick_matrix() {
     // panel 1: two fine members + the one coarse member the filter keeps
     assert_eq!(fig["scalars"]["panel1_points"].as_f64(), Some(3.0), "{fig}");
     let svg = std::fs::read_to_string(t.path().join("reports/quick/fig.svg")).unwrap();
-    assert!(svg.contains("d50 [mm]") && svg.contains("profile: quick"), "two panels and the footer");
+    assert!(
+        svg.contains("d50 [mm]") && svg.contains("profile: quick"),
+        "two panels and the footer"
+    );
     let cmp = json(&t, "cmp");
     let claims = cmp["claims"].as_array().unwrap();
     assert_eq!(claims.len(), 2);
     let ratio = cmp["scalars"]["coarse-twice_ratio"].as_f64().unwrap();
-    assert!((ratio - 2.0).abs() < 0.05, "d50 ratio of [1.8, 2.2] to [0.9, 1.1] mm grains: {ratio}");
+    assert!(
+        (ratio - 2.0).abs() < 0.05,
+        "d50 ratio of [1.8, 2.2] to [0.9, 1.1] mm grains: {ratio}"
+    );
     assert!(claims.iter().all(|c| c["pass"] == true), "{claims:?}");
     assert_eq!(cmp["scalars"]["coarse-twice_pairs"].as_f64(), Some(2.0));
 }
@@ -80,16 +86,25 @@ fn paper_profile_sweeps_the_paper_matrix() {
 
 #[test]
 fn a_profile_matrix_must_sweep_the_stage_key() {
-    let t = TempProject::new(&PIPE.replace("profiles: { quick: { matrix: { n: [200, 400] } } }\n  - id: coarse", "profiles: { quick: { matrix: { seed: [1, 2] } } }\n  - id: coarse"));
+    let t = TempProject::new(&PIPE.replace(
+        "profiles: { quick: { matrix: { n: [200, 400] } } }\n  - id: coarse",
+        "profiles: { quick: { matrix: { seed: [1, 2] } } }\n  - id: coarse",
+    ));
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("stages[fine].profiles.quick.matrix") && err.contains("matrix: { n: [..] }"), "{err}");
+    assert!(
+        err.contains("stages[fine].profiles.quick.matrix") && err.contains("matrix: { n: [..] }"),
+        "{err}"
+    );
 }
 
 #[test]
 fn plot_roles_must_match_its_inputs() {
     // a series reads a role nobody declared, and a declared role is never read
-    let t = TempProject::new(&PIPE.replace("inputs: { one: fine-n200, f: fine, c: coarse }", "inputs: { one: fine-n200, f: fine, extra: coarse }"));
+    let t = TempProject::new(&PIPE.replace(
+        "inputs: { one: fine-n200, f: fine, c: coarse }",
+        "inputs: { one: fine-n200, f: fine, extra: coarse }",
+    ));
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("reads role `c`, which is not under `inputs:`"), "{err}");
@@ -98,17 +113,33 @@ fn plot_roles_must_match_its_inputs() {
 
 #[test]
 fn bad_plot_and_compare_params_are_refused() {
-    let bad = PIPE.replace("- x: { label: \"n\", log: true }", "- x: { label: \"n\", log: true, range: [0.0, 10.0] }").replace("relation: less }", "relation: less, tolerance: 0.1 }");
+    let bad = PIPE
+        .replace(
+            "- x: { label: \"n\", log: true }",
+            "- x: { label: \"n\", log: true, range: [0.0, 10.0] }",
+        )
+        .replace("relation: less }", "relation: less, tolerance: 0.1 }");
     let t = TempProject::new(&bad);
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("panels[1].x.range"), "log axis from 0: {err}");
     assert!(err.contains("claims[1].relation"), "less with a tolerance: {err}");
-    assert_eq!(err.matches("error:").count(), 2, "one error per mistake, none about the stages' inputs: {err}");
+    assert_eq!(
+        err.matches("error:").count(),
+        2,
+        "one error per mistake, none about the stages' inputs: {err}"
+    );
     // a misspelt key names itself and the allowed ones
-    let t = TempProject::new(&PIPE.replace("y_scale: 1000.0, label: \"fine, n = 200\"", "y_scale: 1000.0, label: \"fine, n = 200\", colour: 3"));
+    let t = TempProject::new(&PIPE.replace(
+        "y_scale: 1000.0, label: \"fine, n = 200\"",
+        "y_scale: 1000.0, label: \"fine, n = 200\", colour: 3",
+    ));
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("series[0].colour") && err.contains("`color`"), "{err}");
-    assert_eq!(err.matches("error:").count(), 1, "a rejected stage's inputs are not handed to another stage: {err}");
+    assert_eq!(
+        err.matches("error:").count(),
+        1,
+        "a rejected stage's inputs are not handed to another stage: {err}"
+    );
 }

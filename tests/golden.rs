@@ -13,7 +13,11 @@ use granrepro::pipeline::{Project, RunOptions, load, run::run};
 
 /// Significant digits pinned for a stage.
 fn digits(id: &str) -> usize {
-    if id.starts_with("psd") || id.starts_with("tab") || id == "fig4-01b" || id == "laws" { 6 } else { 4 }
+    if id.starts_with("psd") || id.starts_with("tab") || id == "fig4-01b" || id == "laws" {
+        6
+    } else {
+        4
+    }
 }
 
 fn copy_dir(from: &Path, to: &Path) {
@@ -50,18 +54,29 @@ fn golden_numbers_quick_profile() {
     // same key, so accepting snapshots of a large change need not rerun the whole chapter.
     let proj = match std::env::var_os("GRANREPRO_CACHE") {
         Some(dir) => {
-            assert!(std::env::var("CI").is_err(), "GRANREPRO_CACHE is for development; CI runs the quick pipeline cold");
+            assert!(
+                std::env::var("CI").is_err(),
+                "GRANREPRO_CACHE is for development; CI runs the quick pipeline cold"
+            );
             Project::new(tmp.path()).with_cache(Path::new(&dir))
         }
         None => Project::new(tmp.path()),
     };
     // GRANREPRO_GOLDEN_ONLY=id,id… pins a subset (and runs only what it needs): for
     // accepting a new stage's snapshot without the whole quick pipeline. CI never sets it.
-    let only: Option<Vec<String>> = std::env::var("GRANREPRO_GOLDEN_ONLY").ok().map(|s| s.split(',').map(|x| x.trim().to_string()).collect());
+    let only: Option<Vec<String>> = std::env::var("GRANREPRO_GOLDEN_ONLY")
+        .ok()
+        .map(|s| s.split(',').map(|x| x.trim().to_string()).collect());
     if let Some(o) = &only {
-        assert!(std::env::var("CI").is_err(), "GRANREPRO_GOLDEN_ONLY is for development; CI pins every stage");
+        assert!(
+            std::env::var("CI").is_err(),
+            "GRANREPRO_GOLDEN_ONLY is for development; CI pins every stage"
+        );
         for id in o {
-            assert!(all.contains(id), "GRANREPRO_GOLDEN_ONLY names {id}, which is not a stage of the quick pipeline");
+            assert!(
+                all.contains(id),
+                "GRANREPRO_GOLDEN_ONLY names {id}, which is not a stage of the quick pipeline"
+            );
         }
     }
     if only.is_none() {
@@ -71,22 +86,54 @@ fn golden_numbers_quick_profile() {
             .filter_map(|e| e.ok()?.file_name().to_str()?.strip_suffix(".snap").map(str::to_string))
             .filter(|id| !all.contains(id))
             .collect();
-        assert!(stale.is_empty(), "golden/ has snapshots of stages no longer in pipeline.yaml: {stale:?}");
+        assert!(
+            stale.is_empty(),
+            "golden/ has snapshots of stages no longer in pipeline.yaml: {stale:?}"
+        );
     }
-    let golden: Vec<&str> = all.iter().map(|s| s.as_str()).filter(|id| only.as_ref().is_none_or(|o| o.iter().any(|x| x == id))).collect();
+    let golden: Vec<&str> = all
+        .iter()
+        .map(|s| s.as_str())
+        .filter(|id| only.as_ref().is_none_or(|o| o.iter().any(|x| x == id)))
+        .collect();
     let targets: Vec<String> = golden.iter().map(|s| s.to_string()).collect();
-    let s = run(&p, &proj, &RunOptions { targets, jobs: 2, quiet: true, ..Default::default() }).unwrap();
+    let s = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets,
+            jobs: 2,
+            quiet: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert!(!s.failed(), "{:?}", s.stages);
     // The run's cost, stage by stage, from its run records (`granrepro plan --timings`):
     // a cold golden run is the cold quick pipeline (issue 13), so keep its table beside
     // the build (`target/tmp/golden-timings-quick.txt`; printed with `--nocapture`).
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    let timings = granrepro::pipeline::timings::timings(&p, &proj, &s.stages.iter().map(|x| x.id.clone()).collect::<Vec<_>>()).unwrap().to_text(cores, 0.0);
-    std::fs::write(Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden-timings-quick.txt"), &timings).unwrap();
+    let timings =
+        granrepro::pipeline::timings::timings(&p, &proj, &s.stages.iter().map(|x| x.id.clone()).collect::<Vec<_>>())
+            .unwrap()
+            .to_text(cores, 0.0);
+    std::fs::write(
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden-timings-quick.txt"),
+        &timings,
+    )
+    .unwrap();
     println!("{timings}");
     for id in &golden {
-        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(tmp.path().join("reports/quick").join(format!("{id}.json"))).unwrap()).unwrap();
-        let scalars: BTreeMap<String, String> = v["scalars"].as_object().unwrap().iter().map(|(k, x)| (k.clone(), round(x.as_f64().unwrap_or(f64::NAN), digits(id)))).collect();
+        let v: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(tmp.path().join("reports/quick").join(format!("{id}.json"))).unwrap(),
+        )
+        .unwrap();
+        let scalars: BTreeMap<String, String> = v["scalars"]
+            .as_object()
+            .unwrap()
+            .iter()
+            .map(|(k, x)| (k.clone(), round(x.as_f64().unwrap_or(f64::NAN), digits(id))))
+            .collect();
         let rows = |key: &str| -> Vec<BTreeMap<String, String>> {
             v[key]
                 .as_array()
@@ -95,7 +142,10 @@ fn golden_numbers_quick_profile() {
                 .map(|c| {
                     let mut m = BTreeMap::new();
                     m.insert("id".into(), c["id"].as_str().unwrap().to_string());
-                    m.insert("paper".into(), round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)));
+                    m.insert(
+                        "paper".into(),
+                        round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)),
+                    );
                     m.insert("ours".into(), round(c["ours"].as_f64().unwrap_or(f64::NAN), digits(id)));
                     m.insert("pass".into(), c["pass"].to_string());
                     if c["calibrated"].as_bool() == Some(true) {

@@ -9,7 +9,10 @@ use granrepro::mpm::{Model, MpmParams};
 #[test]
 fn quick_a04_collapse_mohr_coulomb() {
     let p = MpmParams::quick();
-    let opts = CollapseOptions { snapshot_tau: vec![0.0, 1.0], ..Default::default() };
+    let opts = CollapseOptions {
+        snapshot_tau: vec![0.0, 1.0],
+        ..Default::default()
+    };
     let mut calls = 0usize;
     let r = column::collapse_with_progress(&p, ColumnSpec::from_aspect(0.4), &opts, &mut |s, t_max| {
         assert!(s.t <= t_max + 1e-3);
@@ -20,7 +23,12 @@ fn quick_a04_collapse_mohr_coulomb() {
     let first = r.series.first().unwrap();
     let last = r.series.last().unwrap();
     let e0 = first.e.potential + first.e.elastic;
-    let e1 = last.e.potential + last.e.kinetic + last.e.elastic + last.e.plastic_work + last.e.wall_friction + last.e.wall_normal;
+    let e1 = last.e.potential
+        + last.e.kinetic
+        + last.e.elastic
+        + last.e.plastic_work
+        + last.e.wall_friction
+        + last.e.wall_normal;
     eprintln!(
         "a=0.4 quick: {} points, dL = {:.3}, stopped {} at t/tau_c = {:.2}, steps {}, wall {:.2}s, energy closure {:.4}",
         r.points,
@@ -40,18 +48,29 @@ fn quick_a04_collapse_mohr_coulomb() {
     assert!((r.snapshots[0].t).abs() < 1e-12);
     assert_eq!(r.snapshots[1].x.len(), r.points);
     // (L(0) − L0) = 0: the front starts at the column edge.
-    assert!((first.l - r.spec.l0).abs() < 0.1 * p.spacing(), "L(0) = {}, L0 = {}", first.l, r.spec.l0);
+    assert!(
+        (first.l - r.spec.l0).abs() < 0.1 * p.spacing(),
+        "L(0) = {}, L0 = {}",
+        first.l,
+        r.spec.l0
+    );
 }
 
 #[test]
 fn quick_a04_collapse_mu_i() {
     let mut p = MpmParams::quick();
     p.material.model = Model::mu_i_default();
-    let opts = CollapseOptions { snapshot_tau: vec![1.0], ..Default::default() };
+    let opts = CollapseOptions {
+        snapshot_tau: vec![1.0],
+        ..Default::default()
+    };
     let r = column::collapse(&p, ColumnSpec::from_aspect(0.4), &opts).unwrap();
     let s = &r.snapshots[0];
     let imax = s.inertial.iter().cloned().fold(0.0, f64::max);
-    eprintln!("a=0.4 quick mu(I): dL = {:.3}, stopped {}, max I at tau_c {:.3}", r.runout, r.stopped, imax);
+    eprintln!(
+        "a=0.4 quick mu(I): dL = {:.3}, stopped {}, max I at tau_c {:.3}",
+        r.runout, r.stopped, imax
+    );
     assert!(r.runout > 0.3 && r.runout < 1.2);
     assert!(imax > 0.0);
 }
@@ -77,5 +96,8 @@ fn front_measures_on_a_gapped_row() {
     assert_eq!(dil.n_main, 100, "radii 0.75 s + 1.5 s (J = 4) bridge the 2 s gap");
     assert!((dil.length - (100.5 * s + lp)).abs() < 1e-12);
     let q = column::mass_quantile_x(&st, 0.99);
-    assert!((q - 99.5 * s).abs() < 1e-12, "99 % of 100 equal masses: the 99th point, {q}");
+    assert!(
+        (q - 99.5 * s).abs() < 1e-12,
+        "99 % of 100 equal masses: the 99th point, {q}"
+    );
 }

@@ -19,7 +19,19 @@ fn fingerprint(scheme: Scheme, model: Model, threads: usize) -> Vec<u64> {
         }
         let mut out = Vec::new();
         for q in &col.state.points {
-            for v in [q.x.x, q.x.y, q.v.x, q.v.y, q.stress.xx, q.stress.yy, q.stress.xy, q.stress.zz, q.vol, q.eps_p, q.work_p] {
+            for v in [
+                q.x.x,
+                q.x.y,
+                q.v.x,
+                q.v.y,
+                q.stress.xx,
+                q.stress.yy,
+                q.stress.xy,
+                q.stress.zz,
+                q.vol,
+                q.eps_p,
+                q.work_p,
+            ] {
                 out.push(v.to_bits());
             }
         }
@@ -37,7 +49,10 @@ fn one_and_two_threads_are_bit_identical() {
             let b = fingerprint(scheme, model, threads);
             assert_eq!(a.len(), b.len());
             let first_diff = a.iter().zip(&b).position(|(x, y)| x != y);
-            assert!(first_diff.is_none(), "{scheme:?}, {threads} threads: first difference at word {first_diff:?}");
+            assert!(
+                first_diff.is_none(),
+                "{scheme:?}, {threads} threads: first difference at word {first_diff:?}"
+            );
         }
     }
 }

@@ -30,7 +30,10 @@ fn elastic_column_matches_rho_g_depth() {
         let an = -rho_g * (col.spec.h0 - y);
         let err = (syy - an).abs() / (rho_g * col.spec.h0);
         worst = worst.max(err);
-        assert!((sxx - nu / (1.0 - nu) * syy).abs() < 0.02 * rho_g * col.spec.h0, "row {r}: K0 violated");
+        assert!(
+            (sxx - nu / (1.0 - nu) * syy).abs() < 0.02 * rho_g * col.spec.h0,
+            "row {r}: K0 violated"
+        );
     }
     eprintln!("elastic geostatic: max row error / (rho g H) = {worst:.3e}");
     assert!(worst < 0.02, "max row error {worst}");

@@ -2,9 +2,9 @@
 //! case per region), a plane-strain biaxial element test reaching the predicted stress ratio,
 //! μ(I) laws.
 
+use granrepro::math::Mat2;
 use granrepro::mpm::material::*;
 use granrepro::mpm::{Model, Stress};
-use granrepro::math::Mat2;
 
 fn el() -> Elastic {
     Elastic::new(1.98e6, 0.22)
@@ -24,7 +24,10 @@ fn check_on_surface(trial: [f64; 3], out: [f64; 3], m: &McSurface) {
     let scale = trial.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     assert!(f.abs() < 1e-10 * scale, "f = {f}");
     let dtr = (trial[0] + trial[1] + trial[2]) - (out[0] + out[1] + out[2]);
-    assert!(dtr.abs() < 1e-9 * scale, "psi = 0 flow must keep the mean stress: {dtr}");
+    assert!(
+        dtr.abs() < 1e-9 * scale,
+        "psi = 0 flow must keep the mean stress: {dtr}"
+    );
 }
 
 #[test]
@@ -85,7 +88,12 @@ fn apex_and_tension_regions() {
 
 #[test]
 fn in_plane_reconstruction_is_coaxial() {
-    let tr = Stress { xx: -400.0, yy: -1600.0, xy: 300.0, zz: -600.0 };
+    let tr = Stress {
+        xx: -400.0,
+        yy: -1600.0,
+        xy: 300.0,
+        zz: -600.0,
+    };
     let u = mohr_coulomb(tr, &el(), &mc());
     assert_ne!(u.region, Region::Elastic);
     // Principal directions unchanged: σ_xy/(σ_xx − σ_yy) is preserved.
@@ -103,7 +111,12 @@ fn biaxial_element_test_reaches_predicted_ratio() {
     let e = el();
     let m = mc();
     let p0 = 1000.0;
-    let mut s = Stress { xx: -p0, yy: -p0, xy: 0.0, zz: -p0 };
+    let mut s = Stress {
+        xx: -p0,
+        yy: -p0,
+        xy: 0.0,
+        zz: -p0,
+    };
     let dt = 1.0;
     let deyy = -2e-6;
     let mut first_yield_ratio = None;
@@ -161,7 +174,12 @@ fn face_plastic_strain_matches_compliance_of_the_correction() {
     let e = el();
     for psi in [0.0, 10.0] {
         let m = McSurface::from_degrees(22.2, psi, 0.0, 0.0);
-        let tr = Stress { xx: -400.0, yy: -1600.0, xy: 300.0, zz: -900.0 };
+        let tr = Stress {
+            xx: -400.0,
+            yy: -1600.0,
+            xy: 300.0,
+            zz: -900.0,
+        };
         let u = mohr_coulomb(tr, &e, &m);
         assert_eq!(u.region, Region::Face);
         // Principal frame of the (coaxial) trial and returned stresses.
@@ -175,7 +193,15 @@ fn face_plastic_strain_matches_compliance_of_the_correction() {
         let w: f64 = (0..3).map(|k| o[k] * de[k]).sum();
         let mean = (de[0] + de[1] + de[2]) / 3.0;
         let eq = (2.0 / 3.0 * de.iter().map(|d| (d - mean).powi(2)).sum::<f64>()).sqrt();
-        assert!((w - u.plastic_work).abs() < 1e-9 * w.abs(), "psi {psi}: work {w} vs {}", u.plastic_work);
-        assert!((eq - u.d_eps_p).abs() < 1e-9 * eq, "psi {psi}: eps {eq} vs {}", u.d_eps_p);
+        assert!(
+            (w - u.plastic_work).abs() < 1e-9 * w.abs(),
+            "psi {psi}: work {w} vs {}",
+            u.plastic_work
+        );
+        assert!(
+            (eq - u.d_eps_p).abs() < 1e-9 * eq,
+            "psi {psi}: eps {eq} vs {}",
+            u.d_eps_p
+        );
     }
 }

@@ -26,7 +26,13 @@ fn too_large_step_is_refused_with_the_limit() {
         }
         other => panic!("expected StepTooLarge, got {other:?}"),
     }
-    let q = MpmParams { step: StepRule::Cfl { courant: 0.5, dt_max: 1.0 }, ..MpmParams::default() };
+    let q = MpmParams {
+        step: StepRule::Cfl {
+            courant: 0.5,
+            dt_max: 1.0,
+        },
+        ..MpmParams::default()
+    };
     let dt = planned_dt(&q, 1.97);
     assert!(preflight(&q, dt, 1.97).is_ok());
 }
@@ -40,7 +46,13 @@ fn validation_lists_every_bad_value() {
     p.ppc = 15;
     p.flip = 2.0;
     let keys: Vec<String> = p.validate().into_iter().map(|i| i.key).collect();
-    for k in ["material.poisson", "material.young_pa", "material.friction_deg", "ppc", "flip"] {
+    for k in [
+        "material.poisson",
+        "material.young_pa",
+        "material.friction_deg",
+        "ppc",
+        "flip",
+    ] {
         assert!(keys.iter().any(|x| x == k), "missing issue for {k}: {keys:?}");
     }
     assert!(MpmParams::default().validate().is_empty());
@@ -62,7 +74,14 @@ fn params_serde_defaults_and_unknown_keys() {
 
 #[test]
 fn collapse_refuses_an_unstable_fixed_step_before_running() {
-    let p = MpmParams { step: StepRule::Fixed { dt: 1e-3 }, ..MpmParams::quick() };
-    let r = granrepro::mpm::column::collapse(&p, granrepro::mpm::column::ColumnSpec::from_aspect(0.4), &Default::default());
+    let p = MpmParams {
+        step: StepRule::Fixed { dt: 1e-3 },
+        ..MpmParams::quick()
+    };
+    let r = granrepro::mpm::column::collapse(
+        &p,
+        granrepro::mpm::column::ColumnSpec::from_aspect(0.4),
+        &Default::default(),
+    );
     assert!(matches!(r, Err(MpmError::StepTooLarge { .. })));
 }

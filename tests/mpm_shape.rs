@@ -48,7 +48,10 @@ fn weight_is_continuous_and_derivative_matches() {
         assert!((w1 - w0).abs() < 2.0 * dr / h, "jump at r = {r}");
         // Centred finite difference vs analytic derivative (d/dx_p of φ(x_p − x_i)).
         let fd = (w1 - w0) / dr;
-        assert!((fd - 0.5 * (d0 + d1)).abs() <= dr / (h * lp), "derivative at r = {r}: {fd} vs {d0}");
+        assert!(
+            (fd - 0.5 * (d0 + d1)).abs() <= dr / (h * lp),
+            "derivative at r = {r}: {fd} vs {d0}"
+        );
     }
     assert_eq!(gimp_1d(h + lp, h, lp), (0.0, 0.0));
     assert!((gimp_1d(0.0, h, lp).0 - (1.0 - lp / (2.0 * h))).abs() < 1e-15);
@@ -65,9 +68,15 @@ fn stencil_matches_piecewise_definition() {
             let s = Stencil::new(x, y, ox, oy, h, lp);
             for k in 0..3 {
                 let (w, d) = gimp_1d(x - (ox + (s.i0 + k) as f64 * h), h, lp);
-                assert!((w - s.wx[k]).abs() < 1e-12 && (d - s.dx[k]).abs() < 1e-9 / h, "x node {k}");
+                assert!(
+                    (w - s.wx[k]).abs() < 1e-12 && (d - s.dx[k]).abs() < 1e-9 / h,
+                    "x node {k}"
+                );
                 let (w, d) = gimp_1d(y - (oy + (s.j0 + k) as f64 * h), h, lp);
-                assert!((w - s.wy[k]).abs() < 1e-12 && (d - s.dy[k]).abs() < 1e-9 / h, "y node {k}");
+                assert!(
+                    (w - s.wy[k]).abs() < 1e-12 && (d - s.dy[k]).abs() < 1e-9 / h,
+                    "y node {k}"
+                );
             }
             // No node outside the stencil carries weight.
             for k in [-1isize, 3] {

@@ -10,10 +10,21 @@ fn slide(mu: f64) -> (f64, f64) {
     p.cell_size = 2e-3;
     p.ppc = 4;
     p.wall_friction = mu;
-    p.step = StepRule::Cfl { courant: 0.5, dt_max: 1e-3 };
+    p.step = StepRule::Cfl {
+        courant: 0.5,
+        dt_max: 1e-3,
+    };
     let s = p.spacing();
     let (bw, bh) = (0.02, 0.01);
-    let mut pts = particles::rectangle(0.01, 0.0, (bw / s) as usize, (bh / s) as usize, s, p.material.density, 0);
+    let mut pts = particles::rectangle(
+        0.01,
+        0.0,
+        (bw / s) as usize,
+        (bh / s) as usize,
+        s,
+        p.material.density,
+        0,
+    );
     let nu = p.material.poisson;
     geostatic::k0_stress(&mut pts, bh, p.material.density, p.gravity, nu / (1.0 - nu));
     let v0 = 0.5;

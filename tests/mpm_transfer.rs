@@ -22,7 +22,12 @@ fn run(flip: f64, scheme: Scheme) {
     let mut seed = 3u64;
     for q in &mut pts {
         q.v = Vec2::new(lcg(&mut seed), lcg(&mut seed));
-        q.stress = Stress { xx: -500.0 + 200.0 * lcg(&mut seed), yy: -800.0 + 200.0 * lcg(&mut seed), xy: 100.0 * lcg(&mut seed), zz: -600.0 };
+        q.stress = Stress {
+            xx: -500.0 + 200.0 * lcg(&mut seed),
+            yy: -800.0 + 200.0 * lcg(&mut seed),
+            xy: 100.0 * lcg(&mut seed),
+            zz: -600.0,
+        };
         q.x += Vec2::new(0.3 * s * lcg(&mut seed), 0.3 * s * lcg(&mut seed));
     }
     let grid = Grid::covering(0.0, 0.0, 0.1, 0.08, p.cell_size);
@@ -35,10 +40,17 @@ fn run(flip: f64, scheme: Scheme) {
     for _ in 0..5 {
         solver.step(&mut state, 1e-5).unwrap();
         let grid_mass = solver.grid_mass(&mut state).unwrap();
-        assert!((grid_mass - mass).abs() < 1e-12 * mass, "grid mass {grid_mass} vs {mass}");
+        assert!(
+            (grid_mass - mass).abs() < 1e-12 * mass,
+            "grid mass {grid_mass} vs {mass}"
+        );
     }
     let m1 = mom(&state);
-    assert!((m1 - m0).norm() < 1e-12 * scale, "momentum drift {:?} (scale {scale})", m1 - m0);
+    assert!(
+        (m1 - m0).norm() < 1e-12 * scale,
+        "momentum drift {:?} (scale {scale})",
+        m1 - m0
+    );
 }
 
 #[test]

@@ -32,7 +32,14 @@ fn nan_stress_is_reported_with_its_point() {
 fn point_leaving_the_grid_is_reported() {
     let mut c = small();
     // The top-right point is shot upwards; the grid ends 4 cells above the column.
-    let top = c.state.points.iter().enumerate().max_by(|a, b| (a.1.x.x + a.1.x.y).total_cmp(&(b.1.x.x + b.1.x.y))).unwrap().0;
+    let top = c
+        .state
+        .points
+        .iter()
+        .enumerate()
+        .max_by(|a, b| (a.1.x.x + a.1.x.y).total_cmp(&(b.1.x.x + b.1.x.y)))
+        .unwrap()
+        .0;
     c.state.points[top].v = Vec2::new(0.0, 300.0);
     let mut res = Ok(());
     for _ in 0..500 {
@@ -43,7 +50,13 @@ fn point_leaving_the_grid_is_reported() {
     }
     let e = res.unwrap_err();
     eprintln!("{e}");
-    assert!(matches!(e, MpmError::LeftGrid { .. } | MpmError::NonFinite { .. } | MpmError::JacobianNonPositive { .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            MpmError::LeftGrid { .. } | MpmError::NonFinite { .. } | MpmError::JacobianNonPositive { .. }
+        ),
+        "{e}"
+    );
     assert!(e.to_string().contains("step"));
 }
 

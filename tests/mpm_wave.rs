@@ -36,11 +36,37 @@ fn measure(j: f64) -> f64 {
     p.ppc = 4;
     let (w, hgt) = (4e-3, 0.1);
     let s = p.spacing();
-    let pts = particles::rectangle(0.0, 0.0, (w / s).round() as usize, (hgt / s).round() as usize, s, p.material.density, 0);
+    let pts = particles::rectangle(
+        0.0,
+        0.0,
+        (w / s).round() as usize,
+        (hgt / s).round() as usize,
+        s,
+        p.material.density,
+        0,
+    );
     let walls = vec![
-        Wall { axis: Axis::X, at: 0.0, material_on_plus_side: true, friction: 0.0, bilateral: true },
-        Wall { axis: Axis::X, at: w, material_on_plus_side: false, friction: 0.0, bilateral: true },
-        Wall { axis: Axis::Y, at: 0.0, material_on_plus_side: true, friction: 0.0, bilateral: true },
+        Wall {
+            axis: Axis::X,
+            at: 0.0,
+            material_on_plus_side: true,
+            friction: 0.0,
+            bilateral: true,
+        },
+        Wall {
+            axis: Axis::X,
+            at: w,
+            material_on_plus_side: false,
+            friction: 0.0,
+            bilateral: true,
+        },
+        Wall {
+            axis: Axis::Y,
+            at: 0.0,
+            material_on_plus_side: true,
+            friction: 0.0,
+            bilateral: true,
+        },
     ];
     let grid = Grid::covering(0.0, 0.0, w, hgt * 1.1, p.cell_size);
     let mut solver = Solver::new(&p, grid, walls).unwrap();

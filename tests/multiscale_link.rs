@@ -14,7 +14,10 @@ fn changed(sets: &[&str]) -> BTreeSet<String> {
     let base = key_records(&load(&root, "quick", &[]).unwrap());
     let sets: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
     let new = key_records(&load(&root, "quick", &sets).unwrap());
-    base.iter().filter(|(id, (_, k))| new[*id].1 != *k).map(|(id, _)| id.clone()).collect()
+    base.iter()
+        .filter(|(id, (_, k))| new[*id].1 != *k)
+        .map(|(id, _)| id.clone())
+        .collect()
 }
 
 /// Figures, fits and comparisons drawn from a stage: they change with it by design.
@@ -30,19 +33,37 @@ fn is_view(id: &str) -> bool {
 fn shear_friction_reaches_exactly_the_mpm_stages_that_read_it() {
     let got = changed(&["fig4-03.dem.grain.friction=0.6"]);
     // the shear test itself, the tables and every MPM stage that reads φ from it …
-    for id in ["fig4-03", "tab4-01", "tab4-03", "fig4-04", "col-mpm-a0.4", "col-mpm-a10", "col-mpm-mui-a0.4", "wp-mpm-column"] {
+    for id in [
+        "fig4-03",
+        "tab4-01",
+        "tab4-03",
+        "fig4-04",
+        "col-mpm-a0.4",
+        "col-mpm-a10",
+        "col-mpm-mui-a0.4",
+        "wp-mpm-column",
+    ] {
         assert!(got.contains(id), "{id} should change: {got:?}");
     }
     // … and nothing else but the views drawn from them (no DEM scene, no calibration)
-    let other: Vec<&String> = got.iter().filter(|id| !(id.starts_with("col-mpm") || id.starts_with("tab4-") || *id == "wp-mpm-column" || is_view(id))).collect();
+    let other: Vec<&String> = got
+        .iter()
+        .filter(|id| !(id.starts_with("col-mpm") || id.starts_with("tab4-") || *id == "wp-mpm-column" || is_view(id)))
+        .collect();
     assert!(other.is_empty(), "{other:?}");
 }
 
 #[test]
 fn compression_reaches_the_mpm_stages_but_not_the_dem_collapse() {
     let got = changed(&["compress-dem.compression.fit_strain=5e-4"]);
-    assert!(got.contains("compress-dem") && got.contains("fig4-04") && got.contains("col-mpm-a0.4"), "{got:?}");
-    assert!(!got.contains("col-dem-a0.4") && !got.contains("fig4-03") && !got.contains("psd-col"), "{got:?}");
+    assert!(
+        got.contains("compress-dem") && got.contains("fig4-04") && got.contains("col-mpm-a0.4"),
+        "{got:?}"
+    );
+    assert!(
+        !got.contains("col-dem-a0.4") && !got.contains("fig4-03") && !got.contains("psd-col"),
+        "{got:?}"
+    );
 }
 
 #[test]
@@ -52,8 +73,14 @@ fn table_4_3_override_is_available_for_comparison() {
     for a in ["0.2", "0.4", "1", "10"] {
         assert!(got.contains(&format!("col-mpm-a{a}")), "{got:?}");
     }
-    let other: Vec<&String> = got.iter().filter(|id| !(id.starts_with("col-mpm-a") || is_view(id))).collect();
-    assert!(other.is_empty(), "only the Mohr–Coulomb sweep and what is drawn from it: {other:?}");
+    let other: Vec<&String> = got
+        .iter()
+        .filter(|id| !(id.starts_with("col-mpm-a") || is_view(id)))
+        .collect();
+    assert!(
+        other.is_empty(),
+        "only the Mohr–Coulomb sweep and what is drawn from it: {other:?}"
+    );
 }
 
 #[test]
@@ -63,10 +90,28 @@ fn the_joint_calibration_reaches_every_dem_scene_through_the_dag() {
     // collapses, work-precision — and what the MPM reads from them. The grid points and
     // the prepared columns are upstream and stay cached.
     let got = changed(&["calib-dem.runout_tolerance=0.2"]);
-    for id in ["calib-dem", "fig4-03", "compress-dem", "col-dem-a0.4", "col-dem-a6", "col-dem-no-rolling-damper", "wp-dem-column", "fig4-04", "col-mpm-a0.4", "tab4-03"] {
+    for id in [
+        "calib-dem",
+        "fig4-03",
+        "compress-dem",
+        "col-dem-a0.4",
+        "col-dem-a6",
+        "col-dem-no-rolling-damper",
+        "wp-dem-column",
+        "fig4-04",
+        "col-mpm-a0.4",
+        "tab4-03",
+    ] {
         assert!(got.contains(id), "{id} not reached: {got:?}");
     }
-    for id in ["calib-point-mu_r0.1", "calib-point-capped-mu_r0.1", "col-dem-prep-a0.4", "col-dem-prep-a6", "psd-col", "fig4-23"] {
+    for id in [
+        "calib-point-mu_r0.1",
+        "calib-point-capped-mu_r0.1",
+        "col-dem-prep-a0.4",
+        "col-dem-prep-a6",
+        "psd-col",
+        "fig4-23",
+    ] {
         assert!(!got.contains(id), "{id} should stay cached: {got:?}");
     }
 }

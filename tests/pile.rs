@@ -29,38 +29,80 @@ fn refused(run_params: &str, prep_params: &str, needles: &[&str]) {
 
 #[test]
 fn negative_energy_is_refused_naming_key_value_and_range() {
-    refused("energies_mgd: [5.0, -3.0]", "dem: { density: 2600.0 }", &["energies_mgd[1]", "-3", "E_0 > 0"]);
+    refused(
+        "energies_mgd: [5.0, -3.0]",
+        "dem: { density: 2600.0 }",
+        &["energies_mgd[1]", "-3", "E_0 > 0"],
+    );
 }
 
 #[test]
 fn non_finite_and_empty_energy_lists_are_refused() {
-    refused("energies_mgd: [.nan]", "dem: { density: 2600.0 }", &["energies_mgd", "finite"]);
-    refused("energies_mgd: [.inf]", "dem: { density: 2600.0 }", &["energies_mgd", "finite"]);
-    refused("energies_mgd: []", "dem: { density: 2600.0 }", &["energies_mgd", "non-empty"]);
+    refused(
+        "energies_mgd: [.nan]",
+        "dem: { density: 2600.0 }",
+        &["energies_mgd", "finite"],
+    );
+    refused(
+        "energies_mgd: [.inf]",
+        "dem: { density: 2600.0 }",
+        &["energies_mgd", "finite"],
+    );
+    refused(
+        "energies_mgd: []",
+        "dem: { density: 2600.0 }",
+        &["energies_mgd", "non-empty"],
+    );
 }
 
 #[test]
 fn unknown_profile_is_refused_with_the_allowed_ones() {
-    refused("energies_mgd: [5.0], profile: sinusoidal", "dem: { density: 2600.0 }", &["profile", "sinusoidal", "gradient", "uniform"]);
+    refused(
+        "energies_mgd: [5.0], profile: sinusoidal",
+        "dem: { density: 2600.0 }",
+        &["profile", "sinusoidal", "gradient", "uniform"],
+    );
 }
 
 #[test]
 fn a_pile_not_at_rest_is_refused() {
     // A rest criterion looser than "every grain at rest" would hand the excitation a moving pile.
-    refused("energies_mgd: [5.0]", "pile: { settle_ratio: 0.01 }", &["pile.settle_ratio", "0.01", "1e-4"]);
-    refused("energies_mgd: [5.0]", "pile: { settle_speed: 0.5 }", &["pile.settle_speed", "0.5"]);
+    refused(
+        "energies_mgd: [5.0]",
+        "pile: { settle_ratio: 0.01 }",
+        &["pile.settle_ratio", "0.01", "1e-4"],
+    );
+    refused(
+        "energies_mgd: [5.0]",
+        "pile: { settle_speed: 0.5 }",
+        &["pile.settle_speed", "0.5"],
+    );
 }
 
 #[test]
 fn ppc_and_cell_size_the_pile_cannot_hold_are_refused() {
-    refused("method: mpm, energies_mgd: [5.0], mpm: { ppc: 20 }", "dem: { density: 2600.0 }", &["mpm.ppc", "20", "perfect square"]);
-    refused("method: mpm, energies_mgd: [5.0], mpm: { cell_size: 0.2, ppc: 4 }", "dem: { density: 2600.0 }", &["mpm.cell_size", "0.2", "spacing"]);
-    refused("method: mpm, energies_mgd: [5.0], mpm: { ppc: 144, cell_size: 0.03 }", "dem: { density: 2600.0 }", &["mpm.ppc", "144"]);
+    refused(
+        "method: mpm, energies_mgd: [5.0], mpm: { ppc: 20 }",
+        "dem: { density: 2600.0 }",
+        &["mpm.ppc", "20", "perfect square"],
+    );
+    refused(
+        "method: mpm, energies_mgd: [5.0], mpm: { cell_size: 0.2, ppc: 4 }",
+        "dem: { density: 2600.0 }",
+        &["mpm.cell_size", "0.2", "spacing"],
+    );
+    refused(
+        "method: mpm, energies_mgd: [5.0], mpm: { ppc: 144, cell_size: 0.03 }",
+        "dem: { density: 2600.0 }",
+        &["mpm.ppc", "144"],
+    );
 }
 
 #[test]
 fn excitation_carries_e0_exactly_for_both_profiles() {
-    let y: Vec<f64> = (0..50).map(|i| 0.001 * (i as f64 * 0.37).sin().abs() + 0.002 * i as f64).collect();
+    let y: Vec<f64> = (0..50)
+        .map(|i| 0.001 * (i as f64 * 0.37).sin().abs() + 0.002 * i as f64)
+        .collect();
     let m: Vec<f64> = (0..50).map(|i| 0.01 + 0.001 * (i % 7) as f64).collect();
     let top = y.iter().cloned().fold(0.0, f64::max) + 0.001;
     for p in [Profile::Gradient, Profile::Uniform] {
@@ -80,7 +122,11 @@ fn a_settled_pile_does_not_run_out_without_excitation() {
     // not move (a pile that creeps would fail the chapter's preparation criterion).
     let (pile, p) = small_pile();
     assert!(pile.settled, "not settled: E_k/E_p = {}", pile.ke_over_ep);
-    let stop = StopRule { t_min: 10.0, t_max: 20.0, ..Default::default() };
+    let stop = StopRule {
+        t_min: 10.0,
+        t_max: 20.0,
+        ..Default::default()
+    };
     let r = granrepro::dem::pile::run_pile(&pile.state, &p, Profile::Gradient, 1e-12, &stop).unwrap();
     let lf = r.samples.last().unwrap().l;
     assert!((lf - r.l0).abs() < 0.05 * 2.455e-3, "front moved {} m", lf - r.l0);
@@ -91,12 +137,32 @@ fn a_settled_pile_does_not_run_out_without_excitation() {
 #[test]
 fn snapshot_requests_the_run_cannot_honour_are_refused() {
     // the photographed run must be one of the swept energies
-    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 61.0, times: [0.0] }", "dem: { density: 2600.0 }", &["snapshots.e0_mgd", "61", "one of energies_mgd"]);
+    refused(
+        "energies_mgd: [5.0], snapshots: { e0_mgd: 61.0, times: [0.0] }",
+        "dem: { density: 2600.0 }",
+        &["snapshots.e0_mgd", "61", "one of energies_mgd"],
+    );
     // frames are taken at sample instants: 0.3 is not a multiple of sample_every 0.25
-    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [0.0, 0.3] }", "dem: { density: 2600.0 }", &["snapshots.times[1]", "0.3", "multiples of stop.sample_every"]);
-    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [5.0, 2.5] }", "dem: { density: 2600.0 }", &["snapshots.times[1]", "ascending"]);
-    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [] }", "dem: { density: 2600.0 }", &["snapshots.times", "non-empty"]);
-    refused("energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [0.0], every: 2 }", "dem: { density: 2600.0 }", &["snapshots.every"]);
+    refused(
+        "energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [0.0, 0.3] }",
+        "dem: { density: 2600.0 }",
+        &["snapshots.times[1]", "0.3", "multiples of stop.sample_every"],
+    );
+    refused(
+        "energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [5.0, 2.5] }",
+        "dem: { density: 2600.0 }",
+        &["snapshots.times[1]", "ascending"],
+    );
+    refused(
+        "energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [] }",
+        "dem: { density: 2600.0 }",
+        &["snapshots.times", "non-empty"],
+    );
+    refused(
+        "energies_mgd: [5.0], snapshots: { e0_mgd: 5.0, times: [0.0], every: 2 }",
+        "dem: { density: 2600.0 }",
+        &["snapshots.every"],
+    );
 }
 
 #[test]
@@ -112,7 +178,10 @@ fn an_unknown_comparison_is_refused_with_the_allowed_ones() {
 
 /// A small pile (40 grains poured and relaxed) and its contact law.
 fn small_pile() -> (granrepro::dem::pile::Pile, DemParams) {
-    let radii: Vec<f64> = granrepro::dem::prep::diameters_uniform_by_area(40, 1.964e-3, 2.946e-3, 3).iter().map(|d| 0.5 * d).collect();
+    let radii: Vec<f64> = granrepro::dem::prep::diameters_uniform_by_area(40, 1.964e-3, 2.946e-3, 3)
+        .iter()
+        .map(|d| 0.5 * d)
+        .collect();
     let mut p = DemParams::default();
     p.density = 2600.0;
     p.grain.kn = 1e6;
@@ -141,13 +210,20 @@ fn frames_do_not_change_the_run_and_carry_the_input_energy() {
     use granrepro::analysis::pile::FrameTimes;
     let (pile, p) = small_pile();
     let s = pile.state;
-    let stop = StopRule { t_min: 10.0, t_max: 12.0, ..Default::default() };
+    let stop = StopRule {
+        t_min: 10.0,
+        t_max: 12.0,
+        ..Default::default()
+    };
     let g = p.gravity;
     let tu = (2.455e-3 / g).sqrt();
     let e0 = 1e-3;
     for profile in [Profile::Gradient, Profile::Uniform] {
         let plain = granrepro::dem::pile::run_pile(&s, &p, profile, e0, &stop).unwrap();
-        let ft = FrameTimes { times: vec![0.0, 2.5 * tu, 5.0 * tu], end_after_last: false };
+        let ft = FrameTimes {
+            times: vec![0.0, 2.5 * tu, 5.0 * tu],
+            end_after_last: false,
+        };
         let shot = granrepro::dem::pile::run_pile_frames(&s, &p, profile, e0, &stop, &ft).unwrap();
         // leave-out: frames are read at sample instants, the trajectory is the same
         assert_eq!(plain.samples, shot.samples, "{profile:?}: frames changed the run");
@@ -164,7 +240,18 @@ fn frames_do_not_change_the_run_and_carry_the_input_energy() {
         }
         assert!((shot.frames[1].t / tu - 2.5).abs() < 0.05 && (shot.frames[2].t / tu - 5.0).abs() < 0.05);
         // a frames-only run ends at its last frame
-        let short = granrepro::dem::pile::run_pile_frames(&s, &p, profile, e0, &stop, &FrameTimes { end_after_last: true, ..ft.clone() }).unwrap();
+        let short = granrepro::dem::pile::run_pile_frames(
+            &s,
+            &p,
+            profile,
+            e0,
+            &stop,
+            &FrameTimes {
+                end_after_last: true,
+                ..ft.clone()
+            },
+        )
+        .unwrap();
         assert!(short.samples.last().unwrap().t < 5.5 * tu && !short.stopped);
         assert_eq!(short.samples[..], plain.samples[..short.samples.len()]);
     }

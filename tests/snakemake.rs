@@ -38,8 +38,17 @@ fn copy_dir(from: &Path, to: &Path) {
 }
 
 fn granrepro(dir: &Path, args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(bin()).current_dir(dir).env_remove("GRANREPRO_CACHE").args(args).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+    let out = Command::new(bin())
+        .current_dir(dir)
+        .env_remove("GRANREPRO_CACHE")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
 }
 
 fn stage_args(cmd: &[&'static str]) -> Vec<&'static str> {
@@ -52,10 +61,16 @@ fn stage_args(cmd: &[&'static str]) -> Vec<&'static str> {
 
 /// The snakemake to use, or None (with the reason) when there is none.
 fn snakemake() -> Result<PathBuf, String> {
-    let exe = std::env::var_os("SNAKEMAKE").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("snakemake"));
+    let exe = std::env::var_os("SNAKEMAKE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("snakemake"));
     match Command::new(&exe).arg("--version").output() {
         Ok(o) if o.status.success() => Ok(exe),
-        Ok(o) => Err(format!("`{} --version` failed: {}", exe.display(), String::from_utf8_lossy(&o.stderr))),
+        Ok(o) => Err(format!(
+            "`{} --version` failed: {}",
+            exe.display(),
+            String::from_utf8_lossy(&o.stderr)
+        )),
         Err(e) => Err(format!("`{}` not runnable: {e}", exe.display())),
     }
 }
@@ -81,9 +96,13 @@ fn published(dir: &Path) -> Vec<(String, Vec<u8>)> {
 fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     let smk = match snakemake() {
         Ok(s) => s,
-        Err(why) if std::env::var_os("CI").is_some() => panic!("snakemake is required under CI (.ci/run installs it with pip into a venv): {why}"),
+        Err(why) if std::env::var_os("CI").is_some() => {
+            panic!("snakemake is required under CI (.ci/run installs it with pip into a venv): {why}")
+        }
         Err(why) => {
-            eprintln!("SKIPPED: snakemake not found ({why}); install it (`pip install snakemake`) or set SNAKEMAKE=/path/to/snakemake");
+            eprintln!(
+                "SKIPPED: snakemake not found ({why}); install it (`pip install snakemake`) or set SNAKEMAKE=/path/to/snakemake"
+            );
             return;
         }
     };
@@ -97,11 +116,24 @@ fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     args.extend(stage_args(&["export", "snakemake", "--profile", "quick"]));
     let (code, snakefile, err) = granrepro(a.path(), &args);
     assert_eq!(code, 0, "{err}");
-    assert_eq!(snakefile.matches("\nrule stage_").count(), 5, "psd-col, psd-shear, tab4-02, fig4-01b, laws:\n{snakefile}");
+    assert_eq!(
+        snakefile.matches("\nrule stage_").count(),
+        5,
+        "psd-col, psd-shear, tab4-02, fig4-01b, laws:\n{snakefile}"
+    );
     std::fs::write(a.path().join("Snakefile"), &snakefile).unwrap();
 
-    let out = Command::new(&smk).current_dir(a.path()).args(["-s", "Snakefile", "-j", "2"]).output().unwrap();
-    assert!(out.status.success(), "snakemake failed:\n{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(&smk)
+        .current_dir(a.path())
+        .args(["-s", "Snakefile", "-j", "2"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "snakemake failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 
     // Every planned key is in the shared cache, and every marker in place.
     let (code, plan, err) = granrepro(a.path(), &{
@@ -116,21 +148,44 @@ fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     for s in stages {
         let (id, key) = (s["id"].as_str().unwrap(), s["key"].as_str().unwrap());
         assert_eq!(s["cached"], true, "{id} not in the shared cache after snakemake");
-        assert!(cache.join(key).join("manifest.json").is_file(), "{id}: no entry {key} in {cache_s}");
-        assert!(a.path().join(".granrepro/markers/quick").join(format!("{id}.{key}.done")).is_file(), "{id}: no marker");
+        assert!(
+            cache.join(key).join("manifest.json").is_file(),
+            "{id}: no entry {key} in {cache_s}"
+        );
+        assert!(
+            a.path()
+                .join(".granrepro/markers/quick")
+                .join(format!("{id}.{key}.done"))
+                .is_file(),
+            "{id}: no marker"
+        );
     }
-    assert!(!a.path().join(".granrepro/cache").exists(), "workers wrote to the project cache, not the shared one");
+    assert!(
+        !a.path().join(".granrepro/cache").exists(),
+        "workers wrote to the project cache, not the shared one"
+    );
 
     // A second snakemake has nothing to do.
-    let again = Command::new(&smk).current_dir(a.path()).args(["-s", "Snakefile", "-j", "2", "--dry-run"]).output().unwrap();
-    let said = format!("{}{}", String::from_utf8_lossy(&again.stdout), String::from_utf8_lossy(&again.stderr));
+    let again = Command::new(&smk)
+        .current_dir(a.path())
+        .args(["-s", "Snakefile", "-j", "2", "--dry-run"])
+        .output()
+        .unwrap();
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&again.stdout),
+        String::from_utf8_lossy(&again.stderr)
+    );
     assert!(again.status.success() && said.contains("Nothing to be done"), "{said}");
 
     // A changed stage (psd-col's seed) is a new key, so a new marker: re-exported,
     // Snakemake would run psd-col and its dependants, nothing else.
     let psd = a.path().join("stages/psd-col.yaml");
     let text = std::fs::read_to_string(&psd).unwrap();
-    assert!(text.contains("seed: 20150401"), "stages/psd-col.yaml changed: update this test");
+    assert!(
+        text.contains("seed: 20150401"),
+        "stages/psd-col.yaml changed: update this test"
+    );
     std::fs::write(&psd, text.replace("seed: 20150401", "seed: 20150402")).unwrap();
     let mut args = vec!["--cache", cache_s];
     args.extend(stage_args(&["export", "snakemake"]));
@@ -138,8 +193,15 @@ fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     assert_eq!(code, 0, "{err}");
     std::fs::write(a.path().join("Snakefile.changed"), &changed).unwrap();
     // Memory requests now come from the peaks the workers recorded in their markers.
-    assert!(snakefile.contains("mem_mb=4000,") && !changed.contains("mem_mb=4000,"), "{changed}");
-    let dry = Command::new(&smk).current_dir(a.path()).args(["-s", "Snakefile.changed", "-j", "2", "--dry-run"]).output().unwrap();
+    assert!(
+        snakefile.contains("mem_mb=4000,") && !changed.contains("mem_mb=4000,"),
+        "{changed}"
+    );
+    let dry = Command::new(&smk)
+        .current_dir(a.path())
+        .args(["-s", "Snakefile.changed", "-j", "2", "--dry-run"])
+        .output()
+        .unwrap();
     let said = String::from_utf8_lossy(&dry.stdout).to_string() + &String::from_utf8_lossy(&dry.stderr);
     assert!(dry.status.success(), "{said}");
     for r in ["stage_psd_col", "stage_tab4_02", "stage_fig4_01b"] {
@@ -163,9 +225,18 @@ fn snakemake_runs_the_exported_sub_dag_bit_identical_to_granrepro_run() {
     let (code, out, err) = granrepro(b.path(), &stage_args(&["run", "--quiet"]));
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("5 ran, 0 cached"), "{out}");
-    let (pa, pb) = (published(&a.path().join("reports/quick")), published(&b.path().join("reports/quick")));
+    let (pa, pb) = (
+        published(&a.path().join("reports/quick")),
+        published(&b.path().join("reports/quick")),
+    );
     let names: Vec<&str> = pb.iter().map(|(n, _)| n.as_str()).collect();
-    assert!(names.contains(&"tab4-02.csv") && names.contains(&"tab4-02.parquet") && names.contains(&"fig4-01b.svg") && names.contains(&"psd-shear.parquet"), "{names:?}");
+    assert!(
+        names.contains(&"tab4-02.csv")
+            && names.contains(&"tab4-02.parquet")
+            && names.contains(&"fig4-01b.svg")
+            && names.contains(&"psd-shear.parquet"),
+        "{names:?}"
+    );
     assert_eq!(pa.len(), pb.len(), "{names:?}");
     for ((na, ba), (nb, bb)) in pa.iter().zip(&pb) {
         assert_eq!(na, nb);
@@ -185,9 +256,20 @@ fn export_and_plan_refuse_bad_input_with_exit_2() {
     let missing = a.path().join("no/such/parent/cache");
     let (code, out, err) = granrepro(a.path(), &["--cache", missing.to_str().unwrap(), "export", "snakemake"]);
     assert_eq!(code, 2, "{out}{err}");
-    assert!(err.contains("--cache") && err.contains("does not exist") && out.is_empty(), "{err}");
-    let out = Command::new(bin()).current_dir(a.path()).env("GRANREPRO_CACHE", &missing).args(["run", "--stage", "laws"]).output().unwrap();
+    assert!(
+        err.contains("--cache") && err.contains("does not exist") && out.is_empty(),
+        "{err}"
+    );
+    let out = Command::new(bin())
+        .current_dir(a.path())
+        .env("GRANREPRO_CACHE", &missing)
+        .args(["run", "--stage", "laws"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("GRANREPRO_CACHE"));
-    assert!(!a.path().join("reports").exists() && !a.path().join(".granrepro").exists(), "nothing may be written on bad input");
+    assert!(
+        !a.path().join("reports").exists() && !a.path().join(".granrepro").exists(),
+        "nothing may be written on bad input"
+    );
 }

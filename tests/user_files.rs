@@ -17,10 +17,18 @@ fn read(p: impl AsRef<Path>) -> String {
 fn simulate_writes_nothing_for_a_bad_scene_and_points_at_its_line() {
     let t = TempProject::new(SMALL);
     t.write("bad.yaml", "# a scene\npsd:\n  n: -3\n");
-    let (code, _, err) = t.cli(&["simulate", t.path().join("bad.yaml").to_str().unwrap(), "--out", t.path().to_str().unwrap()]);
+    let (code, _, err) = t.cli(&[
+        "simulate",
+        t.path().join("bad.yaml").to_str().unwrap(),
+        "--out",
+        t.path().to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "{err}");
     assert_eq!(read(t.pipeline()), SMALL, "the project's pipeline.yaml was overwritten");
-    assert!(err.contains("bad.yaml:3") && err.contains("psd.n"), "should name the scene file's line and key: {err}");
+    assert!(
+        err.contains("bad.yaml:3") && err.contains("psd.n"),
+        "should name the scene file's line and key: {err}"
+    );
     assert!(!t.path().join(".granrepro").exists() && !t.path().join("reports").exists());
 }
 
@@ -29,7 +37,12 @@ fn simulate_writes_nothing_for_a_bad_scene_and_points_at_its_line() {
 fn simulate_refuses_a_non_empty_directory_it_did_not_make() {
     let t = TempProject::new(SMALL);
     t.write("ok.yaml", "psd: { n: 50 }\nrun: {}\n");
-    let (code, _, err) = t.cli(&["simulate", t.path().join("ok.yaml").to_str().unwrap(), "--out", t.path().to_str().unwrap()]);
+    let (code, _, err) = t.cli(&[
+        "simulate",
+        t.path().join("ok.yaml").to_str().unwrap(),
+        "--out",
+        t.path().to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("non-empty directory"), "{err}");
     assert_eq!(read(t.pipeline()), SMALL);
@@ -41,7 +54,12 @@ fn simulate_refuses_a_non_empty_directory_it_did_not_make() {
 fn cd_simulate_refuses_a_non_empty_directory_it_did_not_make() {
     let t = TempProject::new(SMALL);
     t.write("cd.yaml", "engine: cd\nscene: shear\npsd: { n: 50 }\ngrains: 20\n");
-    let (code, _, err) = t.cli(&["simulate", t.path().join("cd.yaml").to_str().unwrap(), "--out", t.path().to_str().unwrap()]);
+    let (code, _, err) = t.cli(&[
+        "simulate",
+        t.path().join("cd.yaml").to_str().unwrap(),
+        "--out",
+        t.path().to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("non-empty directory"), "{err}");
     assert_eq!(read(t.pipeline()), SMALL, "the project's pipeline.yaml was overwritten");
@@ -78,9 +96,15 @@ fn clean_removes_only_what_granrepro_made_for_the_profile_asked() {
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("removed"), "should say what it removed: {out}");
     let r = t.path().join("reports");
-    assert!(r.join("README.md").exists() && r.join("quick/notes.txt").exists(), "unrelated files removed");
+    assert!(
+        r.join("README.md").exists() && r.join("quick/notes.txt").exists(),
+        "unrelated files removed"
+    );
     assert!(!r.join("quick/psd-a.csv").exists() && !r.join("quick/index.html").exists());
-    assert!(r.join("paper/psd-a.csv").exists(), "another profile's reports were removed");
+    assert!(
+        r.join("paper/psd-a.csv").exists(),
+        "another profile's reports were removed"
+    );
     // The paper entry is still cached; the quick one is gone.
     let (_, out, _) = t.cli(&["status", "--profile", "paper"]);
     assert!(out.contains("fresh    psd-a"), "{out}");
@@ -111,15 +135,24 @@ fn removed_stages_leave_the_index_and_the_reports() {
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 0, "{err}");
     assert!(read(t.path().join("reports/quick/index.html")).contains("id=\"tab\""));
-    let without_tab = SMALL.replace("  - id: tab\n    kind: material-table\n    params: { table: tab4-02 }\n    inputs: { psd: psd-a }\n", "");
+    let without_tab = SMALL.replace(
+        "  - id: tab\n    kind: material-table\n    params: { table: tab4-02 }\n    inputs: { psd: psd-a }\n",
+        "",
+    );
     assert_ne!(without_tab, SMALL);
     std::fs::write(t.pipeline(), without_tab).unwrap();
     let (code, _, err) = t.cli(&["run", "--stage", "laws", "--quiet"]);
     assert_eq!(code, 0, "{err}");
     let index = read(t.path().join("reports/quick/index.html"));
     assert!(!index.contains("id=\"tab\""), "removed stage still listed");
-    assert!(index.contains("id=\"fig-a\""), "a stage not run this time must stay listed");
-    assert!(!t.path().join("reports/quick/tab.csv").exists(), "stale outputs of a removed stage kept");
+    assert!(
+        index.contains("id=\"fig-a\""),
+        "a stage not run this time must stay listed"
+    );
+    assert!(
+        !t.path().join("reports/quick/tab.csv").exists(),
+        "stale outputs of a removed stage kept"
+    );
 }
 
 /// Finding 4: an unlisted stray file inside a cache entry was published.
@@ -130,10 +163,17 @@ fn only_manifest_files_are_published() {
     assert_eq!(code, 0, "{err}");
     let p = granrepro::pipeline::load(&t.pipeline(), "quick", &[]).unwrap();
     let key = granrepro::pipeline::run::key_records(&p)["psd-a"].1.clone();
-    std::fs::write(t.path().join(".granrepro/cache").join(&key).join("stray.txt"), "not ours").unwrap();
+    std::fs::write(
+        t.path().join(".granrepro/cache").join(&key).join("stray.txt"),
+        "not ours",
+    )
+    .unwrap();
     let (code, _, err) = t.cli(&["run", "--stage", "psd-a", "--quiet"]);
     assert_eq!(code, 0, "{err}");
-    assert!(!t.path().join("reports/quick/psd-a-stray.txt").exists(), "a stray file was published");
+    assert!(
+        !t.path().join("reports/quick/psd-a-stray.txt").exists(),
+        "a stray file was published"
+    );
 }
 
 const FIT: &str = "version: 1\nstages:\n  - id: laws\n    kind: reference-laws\n  - id: fit\n    kind: power-law-fit\n    params: { x: a, y: lube2005_runout }\n    inputs: { data: laws }\n";
@@ -148,8 +188,14 @@ fn a_failed_stage_shows_nothing_stale() {
     assert!(out.contains("fit: "), "headline scalars expected: {out}");
     let (code, out, err) = t.cli(&["run", "--stage", "fit", "--set", "fit.y=no_such_column"]);
     assert_eq!(code, 1, "{err}");
-    assert!(!out.contains("fit: ") && !out.contains("claim"), "stale results printed after a failure: {out}");
-    assert!(!t.path().join("reports/quick/fit.json").exists(), "the failed stage's old report is still on show");
+    assert!(
+        !out.contains("fit: ") && !out.contains("claim"),
+        "stale results printed after a failure: {out}"
+    );
+    assert!(
+        !t.path().join("reports/quick/fit.json").exists(),
+        "the failed stage's old report is still on show"
+    );
     assert!(!read(t.path().join("reports/quick/index.html")).contains("id=\"fit\""));
 }
 
@@ -166,7 +212,10 @@ fn overrides_are_marked_and_status_says_so() {
     assert_eq!(res["overrides"][0], "psd-a.seed=7", "{res}");
     let rec: serde_json::Value = serde_json::from_str(&read(t.path().join("reports/quick/psd-a.record.json"))).unwrap();
     assert_eq!(rec["overrides"][0], "psd-a.seed=7");
-    assert!(read(t.path().join("reports/quick/index.html")).contains("OVERRIDDEN"), "index does not mark the override");
+    assert!(
+        read(t.path().join("reports/quick/index.html")).contains("OVERRIDDEN"),
+        "index does not mark the override"
+    );
     let (_, out, _) = t.cli(&["status"]);
     let line = out.lines().find(|l| l.contains("psd-a")).unwrap_or_default();
     assert!(line.contains("stale") && line.contains("psd-a.seed=7"), "{out}");
@@ -175,7 +224,10 @@ fn overrides_are_marked_and_status_says_so() {
     assert_eq!(code, 0, "{err}");
     let fig: serde_json::Value = serde_json::from_str(&read(t.path().join("reports/quick/fig-a.json"))).unwrap();
     assert_eq!(fig["overrides"][0], "psd-a.seed=7", "{fig}");
-    assert!(read(t.path().join("reports/quick/fig-a.svg")).contains("OVERRIDDEN (--set psd-a.seed=7)"), "the figure is not marked");
+    assert!(
+        read(t.path().join("reports/quick/fig-a.svg")).contains("OVERRIDDEN (--set psd-a.seed=7)"),
+        "the figure is not marked"
+    );
 }
 
 /// Finding 7: reports and state were created 0600.
@@ -186,14 +238,29 @@ fn reports_state_and_cache_are_world_readable() {
     let t = TempProject::new(SMALL);
     let (code, _, err) = t.cli(&["run", "--stage", "fig-a", "--quiet"]);
     assert_eq!(code, 0, "{err}");
-    let mode = |p: &Path| std::fs::metadata(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())).permissions().mode() & 0o777;
+    let mode = |p: &Path| {
+        std::fs::metadata(p)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+            .permissions()
+            .mode()
+            & 0o777
+    };
     let q = t.path().join("reports/quick");
-    for f in ["fig-a.json", "fig-a.record.json", "fig-a.svg", "psd-a.csv", "index.html"] {
+    for f in [
+        "fig-a.json",
+        "fig-a.record.json",
+        "fig-a.svg",
+        "psd-a.csv",
+        "index.html",
+    ] {
         assert_eq!(mode(&q.join(f)), 0o644, "{f}");
     }
     assert_eq!(mode(&t.path().join(".granrepro/state/quick/fig-a.json")), 0o644);
     let p = granrepro::pipeline::load(&t.pipeline(), "quick", &[]).unwrap();
-    let entry = t.path().join(".granrepro/cache").join(&granrepro::pipeline::run::key_records(&p)["fig-a"].1);
+    let entry = t
+        .path()
+        .join(".granrepro/cache")
+        .join(&granrepro::pipeline::run::key_records(&p)["fig-a"].1);
     assert_eq!(mode(&entry), 0o755);
     assert_eq!(mode(&entry.join("record.json")), 0o644);
     assert_eq!(mode(&q), 0o755);
@@ -222,7 +289,8 @@ fn input_manifest_hash_is_stable_between_identical_runs() {
         let t = TempProject::new(SMALL);
         let (code, _, err) = t.cli(&["run", "--stage", "fig-a", "--quiet"]);
         assert_eq!(code, 0, "{err}");
-        let rec: serde_json::Value = serde_json::from_str(&read(t.path().join("reports/quick/fig-a.record.json"))).unwrap();
+        let rec: serde_json::Value =
+            serde_json::from_str(&read(t.path().join("reports/quick/fig-a.record.json"))).unwrap();
         rec["inputs"][0]["manifest_blake3"].as_str().unwrap().to_string()
     };
     assert_eq!(hash(), hash());
@@ -241,11 +309,17 @@ fn stale_temp_directories_are_swept() {
     // The same for a publishing run killed while staging a set.
     let staging = t.path().join("reports/quick/.sets/.tmp-psd-a-1-2");
     std::fs::create_dir_all(&staging).unwrap();
-    std::fs::File::open(&staging).unwrap().set_modified(two_hours_ago).unwrap();
+    std::fs::File::open(&staging)
+        .unwrap()
+        .set_modified(two_hours_ago)
+        .unwrap();
     let (code, _, err) = t.cli(&["run", "--stage", "psd-a", "--quiet"]);
     assert_eq!(code, 0, "{err}");
     assert!(!old.exists(), "a stale temp directory was kept");
-    assert!(young.exists(), "a temp directory in use may belong to a running process");
+    assert!(
+        young.exists(),
+        "a temp directory in use may belong to a running process"
+    );
     assert!(!staging.exists(), "a stale staging directory of reports was kept");
 }
 
@@ -274,5 +348,8 @@ fn a_published_name_clash_is_an_error() {
     );
     let (code, _, err) = t.cli(&["run", "--quiet"]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("f-grains.csv") && err.contains("already published by stage"), "{err}");
+    assert!(
+        err.contains("f-grains.csv") && err.contains("already published by stage"),
+        "{err}"
+    );
 }

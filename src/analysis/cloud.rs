@@ -35,7 +35,12 @@ impl Cloud {
     }
     /// Positions, sizes and masses as a front [`Body`].
     pub fn body(&self) -> Body<'_> {
-        Body { x: &self.x, y: &self.y, half: &self.half, mass: &self.mass }
+        Body {
+            x: &self.x,
+            y: &self.y,
+            half: &self.half,
+            mass: &self.mass,
+        }
     }
     /// Speed |v| of every body [m/s].
     pub fn speed(&self) -> Vec<f64> {

@@ -57,7 +57,10 @@ pub fn failure_line(c: &Cloud, l0: f64, bin: f64, v_frac: f64) -> Option<Failure
         .map(|k| ((k as f64 + 0.5) * bin, static_right[k]))
         .collect();
     let y_top = pts.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-    let sel: Vec<(f64, f64)> = pts.into_iter().filter(|p| p.0 >= 0.1 * y_top && p.0 <= 0.9 * y_top).collect();
+    let sel: Vec<(f64, f64)> = pts
+        .into_iter()
+        .filter(|p| p.0 >= 0.1 * y_top && p.0 <= 0.9 * y_top)
+        .collect();
     if sel.len() < 3 {
         return None;
     }
@@ -72,7 +75,14 @@ pub fn failure_line(c: &Cloud, l0: f64, bin: f64, v_frac: f64) -> Option<Failure
     }
     let s = sxy / syy;
     let r2 = if sxx > 0.0 { sxy * sxy / (sxx * syy) } else { 1.0 };
-    Some(FailureLine { angle_deg: 1.0f64.atan2(-s).to_degrees(), slope: s, x_at_base: mx - s * my, n_slices: sel.len(), y_top, r2 })
+    Some(FailureLine {
+        angle_deg: 1.0f64.atan2(-s).to_degrees(),
+        slope: s,
+        x_at_base: mx - s * my,
+        n_slices: sel.len(),
+        y_top,
+        r2,
+    })
 }
 
 /// The Mohr–Coulomb (active Rankine) failure-plane angle 45° + φ/2 [°].

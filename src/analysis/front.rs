@@ -50,13 +50,17 @@ pub enum Link {
 /// Node-index range (inclusive) of the nodes strictly within `support` of `c` on a
 /// lattice of spacing `h` through 0.
 fn node_range(c: f64, h: f64, support: f64) -> (i64, i64) {
-    (((c - support) / h).floor() as i64 + 1, ((c + support) / h).ceil() as i64 - 1)
+    (
+        ((c - support) / h).floor() as i64 + 1,
+        ((c + support) / h).ceil() as i64 - 1,
+    )
 }
 
 /// Do two points share a node of the grid (see [`Link::SharedNode`])?
 fn share_node(xi: f64, yi: f64, xj: f64, yj: f64, h: f64, support: f64) -> bool {
     let overlap = |a: (i64, i64), b: (i64, i64)| a.0.max(b.0) <= a.1.min(b.1);
-    overlap(node_range(xi, h, support), node_range(xj, h, support)) && overlap(node_range(yi, h, support), node_range(yj, h, support))
+    overlap(node_range(xi, h, support), node_range(xj, h, support))
+        && overlap(node_range(yi, h, support), node_range(yj, h, support))
 }
 
 /// Front measurements of one configuration.
@@ -84,7 +88,10 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
 /// Component label (root index) of every body.
 pub fn components(body: &Body, link: Link) -> Vec<u32> {
     let n = body.x.len();
-    assert!(body.y.len() == n && body.half.len() == n && body.mass.len() == n, "Body slices differ in length");
+    assert!(
+        body.y.len() == n && body.half.len() == n && body.mass.len() == n,
+        "Body slices differ in length"
+    );
     let mut parent: Vec<u32> = (0..n as u32).collect();
     if n == 0 {
         return parent;
@@ -155,7 +162,9 @@ pub fn components(body: &Body, link: Link) -> Vec<u32> {
                             ddx * ddx + ddy * ddy <= lim * lim
                         }
                         Link::Distance(d) => ddx * ddx + ddy * ddy <= d * d,
-                        Link::SharedNode { h, support } => share_node(body.x[i], body.y[i], body.x[j], body.y[j], h, support),
+                        Link::SharedNode { h, support } => {
+                            share_node(body.x[i], body.y[i], body.x[j], body.y[j], h, support)
+                        }
                     };
                     if linked {
                         let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j as u32));
@@ -204,7 +213,12 @@ pub fn front(body: &Body, link: Link) -> Front {
         height = height.max(body.y[i] + body.half[i]);
         m += body.mass[i];
     }
-    Front { length, height, n_main: idx.len(), mass_fraction: if total > 0.0 { m / total } else { 0.0 } }
+    Front {
+        length,
+        height,
+        n_main: idx.len(),
+        mass_fraction: if total > 0.0 { m / total } else { 0.0 },
+    }
 }
 
 #[cfg(test)]
@@ -218,7 +232,12 @@ mod tests {
         let y = [0.5; 6];
         let r = [0.5; 6];
         let m = [1.0; 6];
-        let b = Body { x: &x, y: &y, half: &r, mass: &m };
+        let b = Body {
+            x: &x,
+            y: &y,
+            half: &r,
+            mass: &m,
+        };
         let f = front(&b, Link::Contact { gap: 0.01 });
         assert_eq!(f.n_main, 5);
         assert!((f.length - 5.0).abs() < 1e-12);
@@ -242,7 +261,12 @@ mod tests {
         let half = vec![lp; 12];
         let mut m = vec![1.0; 12];
         m[0] = 5.0; // the column end, heaviest
-        let b = Body { x: &x, y: &y, half: &half, mass: &m };
+        let b = Body {
+            x: &x,
+            y: &y,
+            half: &half,
+            mass: &m,
+        };
         let old = front(&b, Link::Contact { gap: 0.575e-3 });
         assert_eq!(old.n_main, 1, "the old rule splits the film");
         let new = front(&b, Link::SharedNode { h, support: h + lp });
@@ -258,12 +282,36 @@ mod tests {
         let (h, lp) = (2e-3, 0.25e-3);
         let link = Link::SharedNode { h, support: h + lp };
         let (y, half, m) = ([1e-3; 2], [lp; 2], [2.0, 1.0]);
-        let apart = front(&Body { x: &[1e-3, 5.5e-3], y: &y, half: &half, mass: &m }, link);
+        let apart = front(
+            &Body {
+                x: &[1e-3, 5.5e-3],
+                y: &y,
+                half: &half,
+                mass: &m,
+            },
+            link,
+        );
         assert_eq!(apart.n_main, 1);
-        let near = front(&Body { x: &[1e-3, 4.0e-3], y: &y, half: &half, mass: &m }, link);
+        let near = front(
+            &Body {
+                x: &[1e-3, 4.0e-3],
+                y: &y,
+                half: &half,
+                mass: &m,
+            },
+            link,
+        );
         assert_eq!(near.n_main, 2);
         // Vertical separation counts too: same x, 5 mm apart in y.
-        let above = front(&Body { x: &[1e-3, 1e-3], y: &[1e-3, 6e-3], half: &half, mass: &m }, link);
+        let above = front(
+            &Body {
+                x: &[1e-3, 1e-3],
+                y: &[1e-3, 6e-3],
+                half: &half,
+                mass: &m,
+            },
+            link,
+        );
         assert_eq!(above.n_main, 1);
     }
 
@@ -273,7 +321,12 @@ mod tests {
         let y = [0.0; 3];
         let r = [0.5; 3];
         let m = [1.0, 1.0, 3.0];
-        let b = Body { x: &x, y: &y, half: &r, mass: &m };
+        let b = Body {
+            x: &x,
+            y: &y,
+            half: &r,
+            mass: &m,
+        };
         assert_eq!(main_mass(&b, Link::Contact { gap: 0.0 }), vec![2]);
     }
 }
@@ -309,5 +362,7 @@ mod stop_tests {
 /// L(t) of the main mass for each linking gap of `gaps` [m] (the gap-sensitivity table
 /// of D01): bodies linked when their edges are within the gap.
 pub fn lengths_for_gaps(body: &Body, gaps: &[f64]) -> Vec<f64> {
-    gaps.iter().map(|&g| front(body, Link::Contact { gap: g }).length).collect()
+    gaps.iter()
+        .map(|&g| front(body, Link::Contact { gap: g }).length)
+        .collect()
 }

@@ -51,7 +51,10 @@ pub struct Stats {
 /// the flowing fraction `frac` passed through.
 pub fn weighted_stats(mut v: Vec<(f64, f64)>, frac: f64) -> Stats {
     if v.is_empty() {
-        return Stats { flowing_fraction: frac, ..Default::default() };
+        return Stats {
+            flowing_fraction: frac,
+            ..Default::default()
+        };
     }
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
     let w: f64 = v.iter().map(|p| p.1).sum();
@@ -66,7 +69,13 @@ pub fn weighted_stats(mut v: Vec<(f64, f64)>, frac: f64) -> Stats {
         }
         v[v.len() - 1].0
     };
-    Stats { mean, median: q(0.5), p95: q(0.95), max: v[v.len() - 1].0, flowing_fraction: frac }
+    Stats {
+        mean,
+        median: q(0.5),
+        p95: q(0.95),
+        max: v[v.len() - 1].0,
+        flowing_fraction: frac,
+    }
 }
 
 /// Coarse-grained I statistics of `c` (see the module docs).

@@ -3,7 +3,7 @@ pub mod cloud;
 pub mod failure;
 pub mod front;
 pub mod inertial;
+pub mod pile;
 pub mod runout;
 pub mod stop;
 pub mod voronoi;
-pub mod pile;

@@ -93,7 +93,14 @@ pub struct StopRule {
 
 impl Default for StopRule {
     fn default() -> Self {
-        StopRule { sample_every: 0.25, t_min: 20.0, t_max: 250.0, ek_ratio: 1e-4, still_time: 10.0, still_tol: 0.5 }
+        StopRule {
+            sample_every: 0.25,
+            t_min: 20.0,
+            t_max: 250.0,
+            ek_ratio: 1e-4,
+            still_time: 10.0,
+            still_tol: 0.5,
+        }
     }
 }
 
@@ -109,12 +116,20 @@ impl StopRule {
         if samples[0].t > t0 {
             return false;
         }
-        samples.iter().rev().take_while(|s| s.t >= t0).all(|s| (s.l - last.l).abs() <= self.still_tol * D_NORM)
+        samples
+            .iter()
+            .rev()
+            .take_while(|s| s.t >= t0)
+            .all(|s| (s.l - last.l).abs() <= self.still_tol * D_NORM)
     }
     /// Hard end reached.
-    pub fn expired(&self, t: f64, g: f64) -> bool { t >= self.t_max * (D_NORM / g).sqrt() }
+    pub fn expired(&self, t: f64, g: f64) -> bool {
+        t >= self.t_max * (D_NORM / g).sqrt()
+    }
     /// Sampling interval [s].
-    pub fn dt_sample(&self, g: f64) -> f64 { self.sample_every * (D_NORM / g).sqrt() }
+    pub fn dt_sample(&self, g: f64) -> f64 {
+        self.sample_every * (D_NORM / g).sqrt()
+    }
 }
 
 /// Per-run results in the chapter's units.
@@ -174,8 +189,16 @@ pub fn first_crossing(ts: &[f64], vs: &[f64], t_start: f64, level: f64) -> f64 {
             continue;
         }
         if vs[k] <= level {
-            let (t0, v0) = if ts[k - 1] < t_start { (t_start, interp(ts, vs, t_start)) } else { (ts[k - 1], vs[k - 1]) };
-            let f = if (v0 - vs[k]).abs() > 0.0 { (v0 - level) / (v0 - vs[k]) } else { 0.0 };
+            let (t0, v0) = if ts[k - 1] < t_start {
+                (t_start, interp(ts, vs, t_start))
+            } else {
+                (ts[k - 1], vs[k - 1])
+            };
+            let f = if (v0 - vs[k]).abs() > 0.0 {
+                (v0 - level) / (v0 - vs[k])
+            } else {
+                0.0
+            };
             return t0 + f.clamp(0.0, 1.0) * (ts[k] - t0);
         }
     }
@@ -234,7 +257,11 @@ pub fn surface_profile(x: &[f64], y: &[f64], half: &[f64], l: f64, bin: f64) -> 
 /// Surface angle [deg]: least-squares line through the profile points with x in
 /// [`from`, `to`]·L (the inclined part: away from the wall corner and the thin toe).
 pub fn slope_deg(profile: &[(f64, f64)], l: f64, from: f64, to: f64) -> f64 {
-    let pts: Vec<(f64, f64)> = profile.iter().cloned().filter(|&(x, y)| y.is_finite() && x >= from * l && x <= to * l).collect();
+    let pts: Vec<(f64, f64)> = profile
+        .iter()
+        .cloned()
+        .filter(|&(x, y)| y.is_finite() && x >= from * l && x <= to * l)
+        .collect();
     if pts.len() < 2 {
         return f64::NAN;
     }
@@ -293,8 +320,20 @@ mod tests {
         let samples: Vec<Sample> = (0..2000)
             .map(|k| {
                 let t = 0.05 * k as f64;
-                let e = if t < T1_UNITS { 1.0 } else { (-(2f64.ln()) * (t - T1_UNITS) / 10.0).exp() };
-                Sample { t: t * tu, l: D_NORM * (10.0 + t.min(40.0)), h: 0.0, ek: e, ekx: e, eky: 0.0, erot: 0.0 }
+                let e = if t < T1_UNITS {
+                    1.0
+                } else {
+                    (-(2f64.ln()) * (t - T1_UNITS) / 10.0).exp()
+                };
+                Sample {
+                    t: t * tu,
+                    l: D_NORM * (10.0 + t.min(40.0)),
+                    h: 0.0,
+                    ek: e,
+                    ekx: e,
+                    eky: 0.0,
+                    erot: 0.0,
+                }
             })
             .collect();
         let s = summarise(&samples, 10.0 * D_NORM, 1.0, 1.0, 1.0, true, g);
@@ -320,11 +359,27 @@ mod tests {
 /// with the given link, translational kinetic energy by component and the rotational one.
 pub fn grain_sample(t: f64, st: &crate::dem::state::State, link: crate::analysis::front::Link) -> Sample {
     use crate::analysis::front::{Body, front};
-    let f = front(&Body { x: &st.x, y: &st.y, half: &st.r, mass: &st.m }, link);
+    let f = front(
+        &Body {
+            x: &st.x,
+            y: &st.y,
+            half: &st.r,
+            mass: &st.m,
+        },
+        link,
+    );
     let ekx = kinetic(&st.m, &st.vx);
     let eky = kinetic(&st.m, &st.vy);
     let erot: f64 = (0..st.len()).map(|i| 0.5 * st.inertia[i] * st.w[i] * st.w[i]).sum();
-    Sample { t, l: f.length, h: f.height, ek: ekx + eky, ekx, eky, erot }
+    Sample {
+        t,
+        l: f.length,
+        h: f.height,
+        ek: ekx + eky,
+        ekx,
+        eky,
+        erot,
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -362,11 +417,17 @@ pub struct FrameTimes {
 
 impl FrameTimes {
     /// Next frame index still to take, if due at `t` (half a sampling interval `dts` of slack).
-    pub fn due(&self, taken: usize, t: f64, dts: f64) -> bool { self.times.get(taken).is_some_and(|&tk| t >= tk - 0.5 * dts) }
+    pub fn due(&self, taken: usize, t: f64, dts: f64) -> bool {
+        self.times.get(taken).is_some_and(|&tk| t >= tk - 0.5 * dts)
+    }
     /// Whether every frame has been taken.
-    pub fn all_taken(&self, taken: usize) -> bool { taken >= self.times.len() }
+    pub fn all_taken(&self, taken: usize) -> bool {
+        taken >= self.times.len()
+    }
     /// Whether a frames-only run may end now.
-    pub fn ends(&self, taken: usize) -> bool { self.end_after_last && !self.times.is_empty() && self.all_taken(taken) }
+    pub fn ends(&self, taken: usize) -> bool {
+        self.end_after_last && !self.times.is_empty() && self.all_taken(taken)
+    }
 }
 
 /// A pile run's samples and frames, and whether it met the stopping rule.
@@ -416,7 +477,11 @@ pub fn sample_run<S, E>(
             break;
         }
     }
-    Ok(Sampled { samples, frames: shots, stopped })
+    Ok(Sampled {
+        samples,
+        frames: shots,
+        stopped,
+    })
 }
 
 /// Cavity behind the mass next to the left wall (figs 4.31, 4.42; figures.md "empty cells of
@@ -433,7 +498,9 @@ pub fn cavity_area(x: &[f64], y: &[f64], half: &[f64], l: f64, bin: f64, extra: 
     let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, k)| **k).map(|(a, _)| *a).collect() };
     let prof = surface_profile(&pick(x), &pick(y), &pick(half), l, bin);
     let top: Vec<f64> = prof.iter().map(|p| if p.1.is_finite() { p.1 } else { 0.0 }).collect();
-    let Some(peak) = (0..top.len()).max_by(|&a, &b| top[a].total_cmp(&top[b]).then(b.cmp(&a))) else { return 0.0 };
+    let Some(peak) = (0..top.len()).max_by(|&a, &b| top[a].total_cmp(&top[b]).then(b.cmp(&a))) else {
+        return 0.0;
+    };
     let mut env = 0.0f64;
     let mut area = 0.0;
     for b in (0..peak).rev() {
@@ -458,8 +525,15 @@ pub fn touching(x: &[f64], y: &[f64], half: &[f64], extra: f64) -> Vec<bool> {
         }
         let reach = 1.1 * (half[i] + hmax) + extra;
         let near = |j: usize| j != i && (x[j] - x[i]).hypot(y[j] - y[i]) <= 1.1 * (half[i] + half[j]) + extra;
-        let fwd = order[k + 1..].iter().take_while(|&&j| x[j] - x[i] <= reach).any(|&j| near(j));
-        let back = order[..k].iter().rev().take_while(|&&j| x[i] - x[j] <= reach).any(|&j| near(j));
+        let fwd = order[k + 1..]
+            .iter()
+            .take_while(|&&j| x[j] - x[i] <= reach)
+            .any(|&j| near(j));
+        let back = order[..k]
+            .iter()
+            .rev()
+            .take_while(|&&j| x[i] - x[j] <= reach)
+            .any(|&j| near(j));
         out[i] = fwd || back;
     }
     out
@@ -467,7 +541,9 @@ pub fn touching(x: &[f64], y: &[f64], half: &[f64], extra: f64) -> Vec<bool> {
 
 /// Smallest gap between a body and the left wall x = 0, min(x − half) [m] (figs 4.31:
 /// "the granular heap remains in contact with the left wall irrespective of the input energy").
-pub fn wall_gap(x: &[f64], half: &[f64]) -> f64 { x.iter().zip(half).map(|(x, h)| x - h).fold(f64::INFINITY, f64::min) }
+pub fn wall_gap(x: &[f64], half: &[f64]) -> f64 {
+    x.iter().zip(half).map(|(x, h)| x - h).fold(f64::INFINITY, f64::min)
+}
 
 #[cfg(test)]
 mod frame_tests {
@@ -489,7 +565,11 @@ mod frame_tests {
         // keep only the two bottom bodies (y = 0.5, 1.0: top 1.5) of the first 10 columns:
         // a dent 10 bins wide up to column 10's top 25.5 − 0.5·10 = 20.5
         let keep: Vec<usize> = (0..x.len()).filter(|&k| x[k] > 10.0 || y[k] <= 1.0).collect();
-        let (x2, y2, h2): (Vec<f64>, Vec<f64>, Vec<f64>) = (keep.iter().map(|&k| x[k]).collect(), keep.iter().map(|&k| y[k]).collect(), keep.iter().map(|&k| h[k]).collect());
+        let (x2, y2, h2): (Vec<f64>, Vec<f64>, Vec<f64>) = (
+            keep.iter().map(|&k| x[k]).collect(),
+            keep.iter().map(|&k| y[k]).collect(),
+            keep.iter().map(|&k| h[k]).collect(),
+        );
         let a = cavity_area(&x2, &y2, &h2, 50.0, 1.0, 0.0);
         assert!((a - 10.0 * (20.5 - 1.5)).abs() < 1e-9, "cavity {a}");
         assert!((wall_gap(&x2, &h2) - 0.0).abs() < 1e-12);
@@ -504,7 +584,10 @@ mod frame_tests {
 
     #[test]
     fn frames_are_due_at_their_sample_instants_only() {
-        let ft = FrameTimes { times: vec![0.0, 2.5], end_after_last: true };
+        let ft = FrameTimes {
+            times: vec![0.0, 2.5],
+            end_after_last: true,
+        };
         assert!(ft.due(0, 0.0, 0.25));
         assert!(!ft.due(1, 2.25, 0.25));
         assert!(ft.due(1, 2.5, 0.25));

@@ -14,7 +14,12 @@ pub fn argmax(v: &[f64]) -> Option<usize> {
 
 /// Least-squares line through the samples with t in [t0, t1]: (slope, R², count).
 pub fn line_fit(t: &[f64], y: &[f64], t0: f64, t1: f64) -> (f64, f64, usize) {
-    let pts: Vec<(f64, f64)> = t.iter().zip(y).filter(|(a, _)| **a >= t0 && **a <= t1).map(|(a, b)| (*a, *b)).collect();
+    let pts: Vec<(f64, f64)> = t
+        .iter()
+        .zip(y)
+        .filter(|(a, _)| **a >= t0 && **a <= t1)
+        .map(|(a, b)| (*a, *b))
+        .collect();
     let n = pts.len() as f64;
     if pts.len() < 3 {
         return (f64::NAN, f64::NAN, pts.len());
@@ -24,7 +29,11 @@ pub fn line_fit(t: &[f64], y: &[f64], t0: f64, t1: f64) -> (f64, f64, usize) {
     let stt = pts.iter().map(|p| (p.0 - mt).powi(2)).sum::<f64>();
     let sty = pts.iter().map(|p| (p.0 - mt) * (p.1 - my)).sum::<f64>();
     let syy = pts.iter().map(|p| (p.1 - my).powi(2)).sum::<f64>();
-    let r2 = if syy > 0.0 && stt > 0.0 { sty * sty / (stt * syy) } else { f64::NAN };
+    let r2 = if syy > 0.0 && stt > 0.0 {
+        sty * sty / (stt * syy)
+    } else {
+        f64::NAN
+    };
     (sty / stt, r2, pts.len())
 }
 
@@ -37,7 +46,12 @@ pub fn mu_e_geometric(h0: f64, l0: f64, lf: f64) -> f64 {
 /// distance run by each body (D17 second estimator; the slope of δE against W over the
 /// short columns is μ_e, the ratio δE/W is one run's value) [J/m].
 pub fn staron_hinch_work(x0: &[f64], x1: &[f64], m: &[f64], g: f64) -> f64 {
-    g * x0.iter().zip(x1).zip(m).map(|((a, b), m)| m * (b - a).abs()).sum::<f64>()
+    g * x0
+        .iter()
+        .zip(x1)
+        .zip(m)
+        .map(|((a, b), m)| m * (b - a).abs())
+        .sum::<f64>()
 }
 
 /// Staron & Hinch's fitted law μ_e = 0.425 μ^0.2 (D17 third value; a formula of the
@@ -58,7 +72,10 @@ pub fn surface_profile(x: &[f64], y: &[f64], half: &[f64], bin: f64) -> Vec<(f64
         let k = ((x[i].max(0.0) / bin) as usize).min(nb - 1);
         h[k] = h[k].max(y[i] + half[i]);
     }
-    h.into_iter().enumerate().map(|(k, v)| ((k as f64 + 0.5) * bin, v)).collect()
+    h.into_iter()
+        .enumerate()
+        .map(|(k, v)| ((k as f64 + 0.5) * bin, v))
+        .collect()
 }
 
 /// R² of the least-squares polynomial of degree 1 or 2 through (x, y) (NaN with too
@@ -91,10 +108,15 @@ pub fn poly_r2(x: &[f64], y: &[f64], degree: usize) -> f64 {
     }
     let coef: Vec<f64> = if m == 2 {
         let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-        vec![(b[0] * a[1][1] - a[0][1] * b[1]) / det, (a[0][0] * b[1] - b[0] * a[1][0]) / det, 0.0]
+        vec![
+            (b[0] * a[1][1] - a[0][1] * b[1]) / det,
+            (a[0][0] * b[1] - b[0] * a[1][0]) / det,
+            0.0,
+        ]
     } else {
         let det3 = |m: &[[f64; 3]; 3]| {
-            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
         };
         let d = det3(&a);
         (0..3)
@@ -107,7 +129,11 @@ pub fn poly_r2(x: &[f64], y: &[f64], degree: usize) -> f64 {
             })
             .collect()
     };
-    let sse: f64 = u.iter().zip(y).map(|(ui, yi)| (yi - (coef[0] + coef[1] * ui + coef[2] * ui * ui)).powi(2)).sum();
+    let sse: f64 = u
+        .iter()
+        .zip(y)
+        .map(|(ui, yi)| (yi - (coef[0] + coef[1] * ui + coef[2] * ui * ui)).powi(2))
+        .sum();
     1.0 - sse / syy
 }
 
@@ -142,7 +168,11 @@ mod deposit_tests {
         let para: Vec<f64> = x.iter().map(|v| (20.0 - v).powi(2) * 0.01).collect();
         assert!((poly_r2(&x, &line, 1) - 1.0).abs() < 1e-12);
         assert!((poly_r2(&x, &para, 2) - 1.0).abs() < 1e-12);
-        assert!(poly_r2(&x, &para, 1) < 0.97, "a parabola is not a line: {}", poly_r2(&x, &para, 1));
+        assert!(
+            poly_r2(&x, &para, 1) < 0.97,
+            "a parabola is not a line: {}",
+            poly_r2(&x, &para, 1)
+        );
     }
 
     #[test]

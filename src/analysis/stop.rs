@@ -25,7 +25,13 @@ pub struct StopRule {
 
 impl Default for StopRule {
     fn default() -> Self {
-        Self { ke_ratio: 1e-4, front_speed: 0.5, window: 1.0, t_min: 1.0, t_max: 12.0 }
+        Self {
+            ke_ratio: 1e-4,
+            front_speed: 0.5,
+            window: 1.0,
+            t_min: 1.0,
+            t_max: 12.0,
+        }
     }
 }
 
@@ -70,17 +76,28 @@ impl StopRule {
                 return Verdict::AtRest;
             }
             if now < self.window * tau {
-                return if now >= self.t_max * tau { Verdict::TimeLimit } else { Verdict::Running };
+                return if now >= self.t_max * tau {
+                    Verdict::TimeLimit
+                } else {
+                    Verdict::Running
+                };
             }
             let t0 = now - self.window * tau;
             let tol = self.front_speed * self.window * d;
             let (ln, hn) = (l[l.len() - 1], h[h.len() - 1]);
-            let still = (0..t.len()).rev().take_while(|&k| t[k] >= t0).all(|k| (l[k] - ln).abs() <= tol && (h[k] - hn).abs() <= tol);
+            let still = (0..t.len())
+                .rev()
+                .take_while(|&k| t[k] >= t0)
+                .all(|k| (l[k] - ln).abs() <= tol && (h[k] - hn).abs() <= tol);
             if still {
                 return Verdict::AtRest;
             }
         }
-        if now >= self.t_max * tau { Verdict::TimeLimit } else { Verdict::Running }
+        if now >= self.t_max * tau {
+            Verdict::TimeLimit
+        } else {
+            Verdict::Running
+        }
     }
 }
 
@@ -90,7 +107,13 @@ mod tests {
 
     #[test]
     fn needs_both_energy_and_front() {
-        let r = StopRule { ke_ratio: 1e-3, front_speed: 0.5, window: 1.0, t_min: 1.0, t_max: 5.0 };
+        let r = StopRule {
+            ke_ratio: 1e-3,
+            front_speed: 0.5,
+            window: 1.0,
+            t_min: 1.0,
+            t_max: 5.0,
+        };
         let t: Vec<f64> = (0..=30).map(|k| k as f64 * 0.1).collect();
         let l_moving: Vec<f64> = t.iter().map(|t| t * 1e-3).collect();
         let flat = vec![1.0; t.len()];
@@ -103,6 +126,9 @@ mod tests {
         // Upper bound.
         let t2: Vec<f64> = (0..=60).map(|k| k as f64 * 0.1).collect();
         let l2: Vec<f64> = t2.iter().map(|t| t * 1e-3).collect();
-        assert_eq!(r.verdict(&t2, &l2, &vec![1.0; t2.len()], 1e-2, 1.0, 1e-3), Verdict::TimeLimit);
+        assert_eq!(
+            r.verdict(&t2, &l2, &vec![1.0; t2.len()], 1e-2, 1.0, 1e-3),
+            Verdict::TimeLimit
+        );
     }
 }

@@ -54,7 +54,10 @@ fn area(poly: &[(f64, f64)]) -> f64 {
 /// Voronoi cells of grains at (x, y) with radii r; `reach` [m] as in the module docs.
 pub fn cells(x: &[f64], y: &[f64], r: &[f64], reach: f64) -> Cells {
     let n = x.len();
-    let mut out = Cells { area: vec![f64::NAN; n], interior: vec![false; n] };
+    let mut out = Cells {
+        area: vec![f64::NAN; n],
+        interior: vec![false; n],
+    };
     if n == 0 {
         return out;
     }
@@ -64,7 +67,12 @@ pub fn cells(x: &[f64], y: &[f64], r: &[f64], reach: f64) -> Cells {
     let y0 = y.iter().cloned().fold(f64::INFINITY, f64::min);
     let nx = (((x.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - x0) / h).floor() as usize + 1).min(1 << 14);
     let ny = (((y.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - y0) / h).floor() as usize + 1).min(1 << 14);
-    let cell = |i: usize| ((((x[i] - x0) / h) as usize).min(nx - 1), (((y[i] - y0) / h) as usize).min(ny - 1));
+    let cell = |i: usize| {
+        (
+            (((x[i] - x0) / h) as usize).min(nx - 1),
+            (((y[i] - y0) / h) as usize).min(ny - 1),
+        )
+    };
     let mut bucket: Vec<Vec<u32>> = vec![Vec::new(); nx * ny];
     for i in 0..n {
         let (cx, cy) = cell(i);
@@ -74,7 +82,12 @@ pub fn cells(x: &[f64], y: &[f64], r: &[f64], reach: f64) -> Cells {
         let lim = r[i] + reach;
         let big = lim * (1.0 + 1e-9);
         let (xi, yi) = (x[i], y[i]);
-        let mut poly = vec![(xi - big, yi - big), (xi + big, yi - big), (xi + big, yi + big), (xi - big, yi + big)];
+        let mut poly = vec![
+            (xi - big, yi - big),
+            (xi + big, yi - big),
+            (xi + big, yi + big),
+            (xi - big, yi + big),
+        ];
         poly = clip(&poly, (0.0, 0.0), (-1.0, 0.0)); // wall: x ≥ 0
         poly = clip(&poly, (0.0, 0.0), (0.0, -1.0)); // base: y ≥ 0
         let (cx, cy) = cell(i);

@@ -67,9 +67,17 @@ pub fn siconos_params() -> CdParams {
 
 /// Run the `ncol × nrow` Siconos deposit for `steps` steps in a pool of `threads`.
 pub fn run(ncol: usize, nrow: usize, threads: usize, steps: u64) -> Result<BenchResult, CdError> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| CdError::Setup(e.to_string()))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CdError::Setup(e.to_string()))?;
     pool.install(|| {
-        let spec = DropSpec { ncol, nrow, scale: 1.0, seed: 1 };
+        let spec = DropSpec {
+            ncol,
+            nrow,
+            scale: 1.0,
+            seed: 1,
+        };
         let r = drop(&spec, &siconos_params(), steps)?;
         Ok(BenchResult {
             case: format!("siconos-{ncol}x{nrow}"),

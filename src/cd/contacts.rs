@@ -65,9 +65,13 @@ pub const WALL_KEY: u64 = 0xFFFF_0000;
 
 impl Contacts {
     /// Number of active contacts.
-    pub fn len(&self) -> usize { self.rows.len() }
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
     /// No active contacts.
-    pub fn is_empty(&self) -> bool { self.rows.is_empty() }
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
 
     /// Move this step's impulses aside and clear the rows (start of `detect`).
     pub(crate) fn begin(&mut self) {
@@ -113,13 +117,32 @@ impl Contacts {
     /// fall out of the index set by a rounding-level positive gap.
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn consider(&mut self, key: u64, a: usize, b: usize, n: [Real; 2], ra: Real, rb: Real, gap: Real, dmin: Real, mu: Real, e: [Real; 2], h: Real, bodies: &[Body], vprev: &[[Real; 3]], vfree: &[[Real; 3]]) {
+    pub(crate) fn consider(
+        &mut self,
+        key: u64,
+        a: usize,
+        b: usize,
+        n: [Real; 2],
+        ra: Real,
+        rb: Real,
+        gap: Real,
+        dmin: Real,
+        mu: Real,
+        e: [Real; 2],
+        h: Real,
+        bodies: &[Body],
+        vprev: &[[Real; 3]],
+        vfree: &[[Real; 3]],
+    ) {
         self.candidates += 1;
         let (ba, bb) = (&bodies[a], &bodies[b]);
         let t = [-n[1], n[0]];
         let rel = |va: &[Real; 3], vb: &[Real; 3]| -> [Real; 2] {
             let dv = [vb[0] - va[0], vb[1] - va[1]];
-            [dv[0] * n[0] + dv[1] * n[1], dv[0] * t[0] + dv[1] * t[1] - va[2] * ra - vb[2] * rb]
+            [
+                dv[0] * n[0] + dv[1] * n[1],
+                dv[0] * t[0] + dv[1] * t[1] - va[2] * ra - vb[2] * rb,
+            ]
         };
         let uf = rel(&vfree[a], &vfree[b]);
         if gap + 0.5 * h * uf[0] > 1e-9 * dmin {
@@ -136,13 +159,31 @@ impl Contacts {
             return; // two immovable bodies: nothing to solve
         }
         let impact = um[0] < 0.0;
-        let bias = if impact { [e[0] * um[0], e[1] * um[1]] } else { [0.0, 0.0] };
-        self.rows.push(Row { a: a as u32, b: b as u32, n, ra, rb, w: [wnn, wnt, wtt], mu, bias, p: [0.0, 0.0] });
+        let bias = if impact {
+            [e[0] * um[0], e[1] * um[1]]
+        } else {
+            [0.0, 0.0]
+        };
+        self.rows.push(Row {
+            a: a as u32,
+            b: b as u32,
+            n,
+            ra,
+            rb,
+            w: [wnn, wnt, wtt],
+            mu,
+            bias,
+            p: [0.0, 0.0],
+        });
         self.key.push(key);
         self.gap.push(gap);
         self.um.push(um);
         self.dmin.push(dmin);
         self.mr.push(0.0);
-        self.r_eff.push(if ra > 0.0 && rb > 0.0 { ra * rb / (ra + rb) } else { ra.max(rb) });
+        self.r_eff.push(if ra > 0.0 && rb > 0.0 {
+            ra * rb / (ra + rb)
+        } else {
+            ra.max(rb)
+        });
     }
 }

@@ -28,7 +28,9 @@ pub struct Ledger {
 
 impl Ledger {
     /// Total dissipated.
-    pub fn dissipated(&self) -> Real { self.collisional + self.frictional + self.numerical }
+    pub fn dissipated(&self) -> Real {
+        self.collisional + self.frictional + self.numerical
+    }
 }
 
 /// Energies of a configuration [J/m].
@@ -44,7 +46,9 @@ pub struct Energies {
 
 impl Energies {
     /// E_k + E_rot + E_p.
-    pub fn total(&self) -> Real { self.ek + self.erot + self.ep }
+    pub fn total(&self) -> Real {
+        self.ek + self.erot + self.ep
+    }
 }
 
 /// Balance check E + D = E_0 + W.

@@ -10,7 +10,9 @@ pub enum CdError {
     InvalidParams(String),
     /// A grain would move more than half the alert distance in one step: a contact could
     /// close without having been detected (pre-flight of every step).
-    #[error("step {step} (t = {t:.6e} s): grain {grain} moves {displacement:.3e} m in one step at {speed:.3e} m/s, more than half the alert distance {alert:.3e} m, so a contact could be missed; fix: dt ≤ {dt_limit:.3e} s, or alert_fraction ≥ {alert_fraction_needed:.3}")]
+    #[error(
+        "step {step} (t = {t:.6e} s): grain {grain} moves {displacement:.3e} m in one step at {speed:.3e} m/s, more than half the alert distance {alert:.3e} m, so a contact could be missed; fix: dt ≤ {dt_limit:.3e} s, or alert_fraction ≥ {alert_fraction_needed:.3}"
+    )]
     StepTooLarge {
         /// Step number.
         step: u64,
@@ -40,7 +42,9 @@ pub enum CdError {
         grain: u32,
     },
     /// Interpenetration beyond the watchdog limit.
-    #[error("interpenetration {fraction:.4} d between {i} and {j} at step {step} (t = {t:.6e} s) exceeds {limit} d; reduce dt (c.5: h ≤ 0.02 d_min/v_max) or tighten the tolerance")]
+    #[error(
+        "interpenetration {fraction:.4} d between {i} and {j} at step {step} (t = {t:.6e} s) exceeds {limit} d; reduce dt (c.5: h ≤ 0.02 d_min/v_max) or tighten the tolerance"
+    )]
     Penetration {
         /// Step number.
         step: u64,
@@ -56,7 +60,9 @@ pub enum CdError {
         limit: Real,
     },
     /// Mechanical energy rose above the input without work to explain it.
-    #[error("energy rose to {energy:.6e} J/m > allowed {allowed:.6e} J/m at step {step} (t = {t:.6e} s); the contact solve is not converging (raise max_iterations, lower the tolerance or dt)")]
+    #[error(
+        "energy rose to {energy:.6e} J/m > allowed {allowed:.6e} J/m at step {step} (t = {t:.6e} s); the contact solve is not converging (raise max_iterations, lower the tolerance or dt)"
+    )]
     EnergyRise {
         /// Step number.
         step: u64,

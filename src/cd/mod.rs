@@ -24,19 +24,19 @@
 //! [`crate::dem::neighbors`]). Rolling resistance (|M_r| ≤ μ_r r_eff P_n) is optional and off
 //! by default.
 
-pub mod params;
-pub mod error;
+pub mod bench;
 pub mod body;
 pub mod contacts;
-pub mod solver;
-pub mod preflight;
 pub mod energy;
-pub mod world;
+pub mod error;
+pub mod params;
 pub mod pile;
-pub mod bench;
+pub mod preflight;
 pub mod shear;
+pub mod solver;
+pub mod world;
 
 pub use energy::{Balance, Energies, Ledger};
 pub use error::CdError;
 pub use params::CdParams;
-pub use world::{StepInfo, Stats, Timers, World};
+pub use world::{Stats, StepInfo, Timers, World};

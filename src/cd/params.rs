@@ -113,10 +113,18 @@ impl CdParams {
             return Ok(());
         }
         let travel = dt * v_max;
-        let through = if travel >= d_min { " — more than d_min: grains pass through one another unseen" } else { "" };
+        let through = if travel >= d_min {
+            " — more than d_min: grains pass through one another unseen"
+        } else {
+            ""
+        };
         Err(format!(
             "CD step {dt:.3e} s moves a grain at v_max = {v_max:.3} m/s by {travel:.3e} m = {:.2} d_min per step{through}; binding time scale: alert-distance crossing time alert/(2 v_max) = {limit:.3e} s (alert = {} d_min = {alert:.3e} m); limit dt <= {limit:.3e} s; fix: dt <= {:.3e} s (figures.md c.5: 0.02 d_min/v_max = {:.3e} s) or alert_fraction >= {:.3}",
-            travel / d_min, self.alert_fraction, 0.9 * limit, crate::cd::preflight::recommended_dt(d_min, v_max), 2.0 * travel / d_min
+            travel / d_min,
+            self.alert_fraction,
+            0.9 * limit,
+            crate::cd::preflight::recommended_dt(d_min, v_max),
+            2.0 * travel / d_min
         ))
     }
 

@@ -30,12 +30,21 @@ pub struct DropSpec {
 }
 
 impl Default for DropSpec {
-    fn default() -> Self { DropSpec { ncol: 25, nrow: 20, scale: 1.0, seed: 1 } }
+    fn default() -> Self {
+        DropSpec {
+            ncol: 25,
+            nrow: 20,
+            scale: 1.0,
+            seed: 1,
+        }
+    }
 }
 
 impl DropSpec {
     /// Box width [m].
-    pub fn width(&self) -> Real { self.ncol as Real * 1.22 * self.scale }
+    pub fn width(&self) -> Real {
+        self.ncol as Real * 1.22 * self.scale
+    }
     /// Grains at rest on the lattice, with the floor (y = 0) and side walls.
     pub fn build(&self, density: Real) -> (State, Vec<Wall>) {
         let s = self.scale;
@@ -48,7 +57,12 @@ impl DropSpec {
                 // Box–Muller for the jitter (the script's 0.01·N(0, 1))
                 let (u1, u2) = (rng.next_f64().max(1e-300), rng.next_f64());
                 let jit = 0.01 * s * (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos();
-                st.insert((i as Real + 0.5) * 1.22 * s + jit, 0.61 * s + j as Real * 1.22 * s, r, density);
+                st.insert(
+                    (i as Real + 0.5) * 1.22 * s + jit,
+                    0.61 * s + j as Real * 1.22 * s,
+                    r,
+                    density,
+                );
             }
         }
         let w = self.width();
@@ -177,7 +191,14 @@ pub struct ImpactResult {
 
 /// Remove the right wall of a settled deposit and give the grains the chapter's gradient
 /// excitation v_x = v0 (y_max − y)/y_max (figures.md SC-PILE); run for `time` seconds.
-pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0: Real, time: Real) -> Result<ImpactResult, CdError> {
+pub fn impact(
+    state: &State,
+    walls: &[Wall],
+    width: Real,
+    params: &CdParams,
+    v0: Real,
+    time: Real,
+) -> Result<ImpactResult, CdError> {
     let mut s = state.clone();
     let y_max = s.y.iter().cloned().fold(0.0, Real::max);
     for i in 0..s.len() {
@@ -197,7 +218,15 @@ pub fn impact(state: &State, walls: &[Wall], width: Real, params: &CdParams, v0:
     fr.sort_by(|a, b| a.total_cmp(b));
     let lf = fr[((0.95 * fr.len() as Real) as usize).min(fr.len() - 1)];
     let e = w.energies();
-    Ok(ImpactResult { runout: (lf - width) / width, com_shift: (com(&w.state) - x0) / width, dissipated: w.ledger.dissipated(), ek0, ek_final: e.ek + e.erot, stats: w.stats, wall_s })
+    Ok(ImpactResult {
+        runout: (lf - width) / width,
+        com_shift: (com(&w.state) - x0) / width,
+        dissipated: w.ledger.dissipated(),
+        ek0,
+        ek_final: e.ek + e.erot,
+        stats: w.stats,
+        wall_s,
+    })
 }
 
 /// Excite a pile at rest (grains from the DEM deposit: the same geometry seeds every
@@ -223,9 +252,9 @@ pub fn run_excited_pile_frames(
     stop: &crate::analysis::pile::StopRule,
     frames: &crate::analysis::pile::FrameTimes,
 ) -> Result<crate::dem::pile::PileRun, CdError> {
-    use crate::dem::pile::grain_frame;
     use crate::analysis::front::Link;
     use crate::analysis::pile::{excitation, grain_sample, kinetic, sample_run};
+    use crate::dem::pile::grain_frame;
     let mut s = pile.clone();
     s.stop();
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
@@ -248,9 +277,32 @@ pub fn run_excited_pile_frames(
         next += dts;
         Ok(())
     };
-    let run = sample_run(&mut w, stop, frames, e0, g, |w| w.t, |w| grain_sample(w.t, &w.state, link), |w| grain_frame(w.t, &w.state), advance)?;
+    let run = sample_run(
+        &mut w,
+        stop,
+        frames,
+        e0,
+        g,
+        |w| w.t,
+        |w| grain_sample(w.t, &w.state, link),
+        |w| grain_frame(w.t, &w.state),
+        advance,
+    )?;
     let l0 = run.samples[0].l;
-    let crate::analysis::pile::Sampled { samples, frames: shots, stopped } = run;
+    let crate::analysis::pile::Sampled {
+        samples,
+        frames: shots,
+        stopped,
+    } = run;
     let st = &w.state;
-    Ok(crate::dem::pile::PileRun { samples, l0, e0, e0_check, stopped, steps: w.step_count, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()), frames: shots })
+    Ok(crate::dem::pile::PileRun {
+        samples,
+        l0,
+        e0,
+        e0_check,
+        stopped,
+        steps: w.step_count,
+        final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()),
+        frames: shots,
+    })
 }

@@ -21,7 +21,15 @@ pub fn fastest(bodies: &[Body]) -> (usize, Real) {
 
 /// Refuse `speed·h > alert/2` with the limit and both fixes (`alert` is the budget: pass
 /// twice the alert distance for the after-step check).
-pub fn check_motion(step: u64, t: Real, body: usize, speed: Real, h: Real, alert: Real, d_min: Real) -> Result<(), CdError> {
+pub fn check_motion(
+    step: u64,
+    t: Real,
+    body: usize,
+    speed: Real,
+    h: Real,
+    alert: Real,
+    d_min: Real,
+) -> Result<(), CdError> {
     let disp = speed * h;
     if disp > 0.5 * alert {
         return Err(CdError::StepTooLarge {
@@ -39,4 +47,6 @@ pub fn check_motion(step: u64, t: Real, body: usize, speed: Real, h: Real, alert
 }
 
 /// The figures.md c.5 step rule h ≤ 0.02 d_min / v_max, for a stage to state its choice.
-pub fn recommended_dt(d_min: Real, v_max: Real) -> Real { 0.02 * d_min / v_max }
+pub fn recommended_dt(d_min: Real, v_max: Real) -> Real {
+    0.02 * d_min / v_max
+}

@@ -64,7 +64,20 @@ pub struct ShearCdParams {
 
 impl Default for ShearCdParams {
     fn default() -> Self {
-        ShearCdParams { inertial_numbers: vec![1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3], pressure: 1e3, strain: 3.0, average_from: 0.5, width: 30.0, layer_pitch: 1.15, courant: 0.02, v_floor: 0.1, compaction_tp: 400.0, plate_drift: 0.005, fit_max_inertial_number: 0.1, seed: 5 }
+        ShearCdParams {
+            inertial_numbers: vec![1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3],
+            pressure: 1e3,
+            strain: 3.0,
+            average_from: 0.5,
+            width: 30.0,
+            layer_pitch: 1.15,
+            courant: 0.02,
+            v_floor: 0.1,
+            compaction_tp: 400.0,
+            plate_drift: 0.005,
+            fit_max_inertial_number: 0.1,
+            seed: 5,
+        }
     }
 }
 
@@ -142,7 +155,9 @@ fn set_plate_mass(c: &mut World, tb: usize, m_layer: Real, h: Real, p: Real, lx:
     c.info[tb].mass = [m, m, 0.0];
 }
 
-fn mean_y(s: &State, idx: &[usize]) -> Real { idx.iter().map(|&i| s.y[i]).sum::<Real>() / idx.len() as Real }
+fn mean_y(s: &State, idx: &[usize]) -> Real {
+    idx.iter().map(|&i| s.y[i]).sum::<Real>() / idx.len() as Real
+}
 
 fn sample_packing(c: &Cell) -> Real {
     let s = &c.world.state;
@@ -194,8 +209,23 @@ fn build_cell(radii: &[Real], sp: &ShearCdParams, params: &CdParams) -> Result<C
     let mut world = World::new(p, s, vec![], Some(lx))?;
     world.energy_check = false; // the plate's work and the imposed shear inject energy by design
     world.add_clump(&bottom, [0.0; 3], [m_bot, m_bot, 0.0], [0.0; 3], [0.0; 3]);
-    let top_body = world.add_clump(&top, [0.0, 1.0 / m_top, 0.0], [m_top, m_top, 0.0], [0.0, -sp.pressure * lx, 0.0], [0.0; 3]);
-    Ok(Cell { world, lx, top_body, bottom, top, sample, d_mean, m_top })
+    let top_body = world.add_clump(
+        &top,
+        [0.0, 1.0 / m_top, 0.0],
+        [m_top, m_top, 0.0],
+        [0.0, -sp.pressure * lx, 0.0],
+        [0.0; 3],
+    );
+    Ok(Cell {
+        world,
+        lx,
+        top_body,
+        bottom,
+        top,
+        sample,
+        d_mean,
+        m_top,
+    })
 }
 
 /// Compact under p with the plate speed capped at `v_cap` until σ_n ≈ p (±2 % over 50
@@ -243,7 +273,11 @@ fn shear_point(base: &Cell, target: Real, sp: &ShearCdParams, rho: Real, d_min: 
     let (mut bx, mut by, mut bt) = (0.0, 0.0, 0.0);
     let (mut wx, mut wy, mut next_sample) = (0.0, 0.0, t_sample);
     let mut t = 0.0;
-    let area: Real = base.sample.iter().map(|&i| crate::math::PI * base.world.state.r[i].powi(2)).sum();
+    let area: Real = base
+        .sample
+        .iter()
+        .map(|&i| crate::math::PI * base.world.state.r[i].powi(2))
+        .sum();
     while t < t_end {
         world.bodies[tb].v[0] = v;
         let h = world.adapt_dt(h_rule.min(t_end - t).max(1e-12 * h_rule));
@@ -288,7 +322,9 @@ fn shear_point(base: &Cell, target: Real, sp: &ShearCdParams, rho: Real, d_min: 
     let mu_se = if mus.len() >= 2 {
         let m = mus.iter().sum::<Real>() / mus.len() as Real;
         (mus.iter().map(|x| (x - m).powi(2)).sum::<Real>() / ((mus.len() - 1) * mus.len()) as Real).sqrt()
-    } else { Real::NAN };
+    } else {
+        Real::NAN
+    };
     let st = world.stats;
     Ok(ShearCdPoint {
         target,
@@ -332,7 +368,9 @@ pub fn fit_linear(x: &[Real], y: &[Real]) -> (Real, Real, Real, Real) {
 /// point by the c.5 rule; gravity is switched off).
 pub fn shear_test(radii: &[Real], params: &CdParams, sp: &ShearCdParams) -> Result<ShearCdResult, CdError> {
     if radii.len() < 20 || sp.inertial_numbers.is_empty() {
-        return Err(CdError::Setup("the CD shear test needs ≥ 20 grains and at least one inertial number".into()));
+        return Err(CdError::Setup(
+            "the CD shear test needs ≥ 20 grains and at least one inertial number".into(),
+        ));
     }
     let rho = params.density;
     let sq = (sp.pressure / rho).sqrt();
@@ -344,7 +382,16 @@ pub fn shear_test(radii: &[Real], params: &CdParams, sp: &ShearCdParams) -> Resu
     let t_p = cell.d_mean / sq;
     let v_cap = 0.5 * p.alert_fraction * d_min / (2.0 * p.dt);
     let tb = cell.top_body;
-    set_plate_mass(&mut cell.world, tb, cell.m_top, p.dt, sp.pressure, cell.lx, sp.plate_drift, d_min);
+    set_plate_mass(
+        &mut cell.world,
+        tb,
+        cell.m_top,
+        p.dt,
+        sp.pressure,
+        cell.lx,
+        sp.plate_drift,
+        d_min,
+    );
     compact(&mut cell, sp.pressure, v_cap.min(v_floor), sp.compaction_tp * t_p)?;
     let compaction_packing = sample_packing(&cell);
     cell.world.stats = Default::default();
@@ -353,10 +400,22 @@ pub fn shear_test(radii: &[Real], params: &CdParams, sp: &ShearCdParams) -> Resu
         .par_iter()
         .map(|&i| shear_point(&cell, i, sp, rho, d_min))
         .collect::<Result<Vec<_>, _>>()?;
-    let fit: Vec<&ShearCdPoint> = points.iter().filter(|q| q.inertial_number <= sp.fit_max_inertial_number * 1.05).collect();
+    let fit: Vec<&ShearCdPoint> = points
+        .iter()
+        .filter(|q| q.inertial_number <= sp.fit_max_inertial_number * 1.05)
+        .collect();
     let fit = if fit.len() >= 2 { fit } else { points.iter().collect() };
     let xs: Vec<Real> = fit.iter().map(|q| q.inertial_number).collect();
     let ys: Vec<Real> = fit.iter().map(|q| q.mu).collect();
     let (mu_min, b, mu_min_se, b_se) = fit_linear(&xs, &ys);
-    Ok(ShearCdResult { points, mu_min, b, mu_min_se, b_se, grains: radii.len(), d_mean: cell.d_mean, compaction_packing })
+    Ok(ShearCdResult {
+        points,
+        mu_min,
+        b,
+        mu_min_se,
+        b_se,
+        grains: radii.len(),
+        d_mean: cell.d_mean,
+        compaction_packing,
+    })
 }

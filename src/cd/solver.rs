@@ -54,7 +54,15 @@ pub fn local_solve(w: [Real; 3], mu: Real, q0: [Real; 2]) -> [Real; 2] {
     }
     // sliding with q_t of sign s and P_t = −s μ P_n; try the direction the sticking
     // impulse points against first
-    let s0 = if pt_stick > 0.0 { -1.0 } else if pt_stick < 0.0 { 1.0 } else if q0[1] >= 0.0 { 1.0 } else { -1.0 };
+    let s0 = if pt_stick > 0.0 {
+        -1.0
+    } else if pt_stick < 0.0 {
+        1.0
+    } else if q0[1] >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
     for s in [s0, -s0] {
         let den = wnn - s * mu * wnt;
         if den <= 0.0 {
@@ -75,7 +83,10 @@ pub fn local_solve(w: [Real; 3], mu: Real, q0: [Real; 2]) -> [Real; 2] {
 pub fn relative_velocity(r: &Row, va: &[Real; 3], vb: &[Real; 3]) -> [Real; 2] {
     let (n, t) = (r.n, [-r.n[1], r.n[0]]);
     let dv = [vb[0] - va[0], vb[1] - va[1]];
-    [dv[0] * n[0] + dv[1] * n[1], dv[0] * t[0] + dv[1] * t[1] - va[2] * r.ra - vb[2] * r.rb]
+    [
+        dv[0] * n[0] + dv[1] * n[1],
+        dv[0] * t[0] + dv[1] * t[1] - va[2] * r.ra - vb[2] * r.rb,
+    ]
 }
 
 /// Apply impulse increment (dP_n, dP_t) of a row to its two bodies.
@@ -114,7 +125,11 @@ pub fn residual(rows: &[Row], bodies: &[Body]) -> Real {
     for r in rows {
         let u = relative_velocity(r, &bodies[r.a as usize].v, &bodies[r.b as usize].v);
         let q = [u[0] + r.bias[0], u[1] + r.bias[1]];
-        let rho = if r.w[0] > 0.0 { 1.0 / r.w[0] } else { 1.0 / r.w[2].max(Real::MIN_POSITIVE) };
+        let rho = if r.w[0] > 0.0 {
+            1.0 / r.w[0]
+        } else {
+            1.0 / r.w[2].max(Real::MIN_POSITIVE)
+        };
         let z = [r.p[0] - rho * (q[0] + r.mu * q[1].abs()), r.p[1] - rho * q[1]];
         let pr = project_cone(z, r.mu);
         let d = [r.p[0] - pr[0], r.p[1] - pr[1]];
@@ -152,14 +167,26 @@ pub fn apply_rolling(r: &Row, bodies: &mut [Body], dm: Real) {
 /// r_eff, μ_r))), each contact solves its (P_n, P_t) block, then its rolling moment with
 /// P_n fixed, M_r = clamp(−(ω_rel − W_rr M_r)/W_rr, ±μ_r r_eff P_n), W_rr = 1/I_a + 1/I_b
 /// (block Gauss–Seidel within the contact; same fixed point).
-pub fn gauss_seidel(rows: &mut [Row], bodies: &mut [Body], s: &Settings, roll: Option<(&mut [Real], &[Real], Real)>) -> SolveInfo {
+pub fn gauss_seidel(
+    rows: &mut [Row],
+    bodies: &mut [Body],
+    s: &Settings,
+    roll: Option<(&mut [Real], &[Real], Real)>,
+) -> SolveInfo {
     match roll {
         None => sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
         Some((mr, re, mu_r)) => sweeps::<true>(rows, bodies, s, mr, re, mu_r),
     }
 }
 
-fn sweeps<const ROLL: bool>(rows: &mut [Row], bodies: &mut [Body], s: &Settings, mr: &mut [Real], re: &[Real], mu_r: Real) -> SolveInfo {
+fn sweeps<const ROLL: bool>(
+    rows: &mut [Row],
+    bodies: &mut [Body],
+    s: &Settings,
+    mr: &mut [Real],
+    re: &[Real],
+    mu_r: Real,
+) -> SolveInfo {
     let mut info = SolveInfo::default();
     if rows.is_empty() {
         info.converged = true;
@@ -179,7 +206,10 @@ fn sweeps<const ROLL: bool>(rows: &mut [Row], bodies: &mut [Body], s: &Settings,
             ];
             let mut p = local_solve(r.w, r.mu, q0);
             if omega != 1.0 {
-                p = [omega * p[0] + (1.0 - omega) * r.p[0], omega * p[1] + (1.0 - omega) * r.p[1]];
+                p = [
+                    omega * p[0] + (1.0 - omega) * r.p[0],
+                    omega * p[1] + (1.0 - omega) * r.p[1],
+                ];
             }
             let dp = [p[0] - r.p[0], p[1] - r.p[1]];
             if dp[0] != 0.0 || dp[1] != 0.0 {
@@ -206,7 +236,13 @@ fn sweeps<const ROLL: bool>(rows: &mut [Row], bodies: &mut [Body], s: &Settings,
             }
         }
         info.iterations = it;
-        info.change = if psum > 0.0 { (dsum / psum).sqrt() } else if dsum > 0.0 { Real::INFINITY } else { 0.0 };
+        info.change = if psum > 0.0 {
+            (dsum / psum).sqrt()
+        } else if dsum > 0.0 {
+            Real::INFINITY
+        } else {
+            0.0
+        };
         if info.change <= s.tolerance {
             info.residual = residual(rows, bodies);
             if info.residual <= s.residual_tolerance {
@@ -227,7 +263,10 @@ mod tests {
         let p = local_solve(w, mu, q0);
         let q = [w[0] * p[0] + w[1] * p[1] + q0[0], w[1] * p[0] + w[2] * p[1] + q0[1]];
         let tol = 1e-12 * (1.0 + q0[0].abs() + q0[1].abs());
-        assert!(p[0] >= 0.0 && q[0] >= -tol && (p[0] * q[0]).abs() <= tol * (1.0 + p[0]), "Signorini {p:?} {q:?}");
+        assert!(
+            p[0] >= 0.0 && q[0] >= -tol && (p[0] * q[0]).abs() <= tol * (1.0 + p[0]),
+            "Signorini {p:?} {q:?}"
+        );
         assert!(p[1].abs() <= mu * p[0] + tol, "cone {p:?}");
         if p[1].abs() < mu * p[0] - tol {
             assert!(q[1].abs() <= tol, "stick {p:?} {q:?}");

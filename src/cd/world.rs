@@ -127,7 +127,13 @@ impl World {
     pub fn new(params: CdParams, state: State, walls: Vec<Wall>, periodic_lx: Option<Real>) -> Result<World, CdError> {
         let issues = params.validate();
         if !issues.is_empty() {
-            return Err(CdError::InvalidParams(issues.iter().map(|i| format!("{} = {} (allowed: {})", i.key, i.value, i.allowed)).collect::<Vec<_>>().join("; ")));
+            return Err(CdError::InvalidParams(
+                issues
+                    .iter()
+                    .map(|i| format!("{} = {} (allowed: {})", i.key, i.value, i.allowed))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            ));
         }
         if state.is_empty() {
             return Err(CdError::Setup("a CD scene needs at least one grain".into()));
@@ -136,41 +142,77 @@ impl World {
         let d_min = 2.0 * state.r.iter().cloned().fold(Real::INFINITY, Real::min);
         let r_max = state.r.iter().cloned().fold(0.0, Real::max);
         if !(d_min > 0.0 && d_min.is_finite()) {
-            return Err(CdError::Setup(format!("grain radii must be > 0 (smallest diameter {d_min})")));
+            return Err(CdError::Setup(format!(
+                "grain radii must be > 0 (smallest diameter {d_min})"
+            )));
         }
         let alert = params.alert_fraction * d_min;
         let skin = params.skin_factor * alert;
         if let Some(lx) = periodic_lx {
             if !(lx >= 3.0 * (2.0 * r_max + skin)) {
-                return Err(CdError::Setup(format!("periodic cell width {lx:.4e} m is below 3 neighbour cells of 2 r_max + skin = {:.4e} m: widen the cell", 2.0 * r_max + skin)));
+                return Err(CdError::Setup(format!(
+                    "periodic cell width {lx:.4e} m is below 3 neighbour cells of 2 r_max + skin = {:.4e} m: widen the cell",
+                    2.0 * r_max + skin
+                )));
             }
         }
         let mut bodies = Vec::with_capacity(n + walls.len());
         let mut info = Vec::with_capacity(n + walls.len());
         for g in 0..n {
             let free = state.inv_m[g] > 0.0;
-            let (im, ii) = if free { (state.inv_m[g], state.inv_i[g]) } else { (0.0, 0.0) };
-            bodies.push(Body { v: [state.vx[g], state.vy[g], state.w[g]], inv: [im, im, ii] });
-            info.push(BodyInfo { mass: [state.m[g], state.m[g], state.inertia[g]], force: [0.0; 3], gravity: free });
+            let (im, ii) = if free {
+                (state.inv_m[g], state.inv_i[g])
+            } else {
+                (0.0, 0.0)
+            };
+            bodies.push(Body {
+                v: [state.vx[g], state.vy[g], state.w[g]],
+                inv: [im, im, ii],
+            });
+            info.push(BodyInfo {
+                mass: [state.m[g], state.m[g], state.inertia[g]],
+                force: [0.0; 3],
+                gravity: free,
+            });
         }
         let mut extras = Vec::new();
         for (k, w) in walls.iter().enumerate() {
-            bodies.push(Body { v: [w.velocity.x, w.velocity.y, 0.0], inv: [0.0; 3] });
+            bodies.push(Body {
+                v: [w.velocity.x, w.velocity.y, 0.0],
+                inv: [0.0; 3],
+            });
             info.push(BodyInfo::default());
             extras.push(Extra::Wall(k));
         }
         let nb = bodies.len();
         let mut w = World {
-            params, state, walls, periodic_lx,
+            params,
+            state,
+            walls,
+            periodic_lx,
             body: (0..n as u32).collect(),
-            bodies, info, extras,
+            bodies,
+            info,
+            extras,
             contacts: Contacts::default(),
             reaction: vec![[0.0; 3]; nb],
-            t: 0.0, step_count: 0, last: StepInfo::default(), stats: Stats::default(), timers: Timers::default(),
-            ledger: Ledger::default(), energy_check: true, log: None, e0: 0.0, ek_max: 0.0, w_abs: 0.0,
-            alert, d_min, skin,
+            t: 0.0,
+            step_count: 0,
+            last: StepInfo::default(),
+            stats: Stats::default(),
+            timers: Timers::default(),
+            ledger: Ledger::default(),
+            energy_check: true,
+            log: None,
+            e0: 0.0,
+            ek_max: 0.0,
+            w_abs: 0.0,
+            alert,
+            d_min,
+            skin,
             neighbors: NeighborList::default(),
-            vprev: vec![[0.0; 3]; nb], vfree: vec![[0.0; 3]; nb],
+            vprev: vec![[0.0; 3]; nb],
+            vfree: vec![[0.0; 3]; nb],
         };
         w.e0 = w.energies().total();
         Ok(w)
@@ -179,10 +221,21 @@ impl World {
     /// Glue `grains` into one rigid clump body with inverse masses `inv` (0 = imposed
     /// component), masses `mass` (for energies), applied force `force` and initial
     /// velocity `v`. Returns the body index. The grains' own bodies become unused.
-    pub fn add_clump(&mut self, grains: &[usize], inv: [Real; 3], mass: [Real; 3], force: [Real; 3], v: [Real; 3]) -> usize {
+    pub fn add_clump(
+        &mut self,
+        grains: &[usize],
+        inv: [Real; 3],
+        mass: [Real; 3],
+        force: [Real; 3],
+        v: [Real; 3],
+    ) -> usize {
         let id = self.bodies.len();
         self.bodies.push(Body { v, inv });
-        self.info.push(BodyInfo { mass, force, gravity: false });
+        self.info.push(BodyInfo {
+            mass,
+            force,
+            gravity: false,
+        });
         self.extras.push(Extra::Clump);
         self.reaction.push([0.0; 3]);
         self.vprev.push([0.0; 3]);
@@ -200,19 +253,31 @@ impl World {
     /// pre-flight (h v ≤ alert/2) passes with a 20 % margin. Returns the step chosen.
     pub fn adapt_dt(&mut self, h_max: Real) -> Real {
         let (_, v) = fastest(&self.bodies);
-        let h = if v > 0.0 { h_max.min(0.4 * self.alert / v) } else { h_max };
+        let h = if v > 0.0 {
+            h_max.min(0.4 * self.alert / v)
+        } else {
+            h_max
+        };
         self.params.dt = h;
         h
     }
 
     /// Alert distance [m].
-    pub fn alert_distance(&self) -> Real { self.alert }
+    pub fn alert_distance(&self) -> Real {
+        self.alert
+    }
     /// Smallest grain diameter [m].
-    pub fn d_min(&self) -> Real { self.d_min }
+    pub fn d_min(&self) -> Real {
+        self.d_min
+    }
     /// Number of grains.
-    pub fn len(&self) -> usize { self.state.len() }
+    pub fn len(&self) -> usize {
+        self.state.len()
+    }
     /// No grains.
-    pub fn is_empty(&self) -> bool { self.state.is_empty() }
+    pub fn is_empty(&self) -> bool {
+        self.state.is_empty()
+    }
 
     /// Advance `steps` steps.
     pub fn run(&mut self, steps: u64) -> Result<(), CdError> {
@@ -236,7 +301,14 @@ impl World {
         self.timers.detect += (t1 - t0).as_secs_f64();
         self.timers.solve += (t2 - t1).as_secs_f64();
         self.timers.update += t2.elapsed().as_secs_f64();
-        let info = StepInfo { iterations: solve.iterations, change: solve.change, residual: solve.residual, converged: solve.converged, contacts: self.contacts.len(), candidates: self.contacts.candidates };
+        let info = StepInfo {
+            iterations: solve.iterations,
+            change: solve.change,
+            residual: solve.residual,
+            converged: solve.converged,
+            contacts: self.contacts.len(),
+            candidates: self.contacts.candidates,
+        };
         let s = &mut self.stats;
         s.steps += 1;
         s.iterations += info.iterations as u64;
@@ -290,7 +362,8 @@ impl World {
                 dx * dx + dy * dy > lim * lim
             });
         if stale {
-            self.neighbors.build(&mut self.state, self.skin, self.periodic_lx, |_, _| 0.0);
+            self.neighbors
+                .build(&mut self.state, self.skin, self.periodic_lx, |_, _| 0.0);
             self.stats.rebuilds += 1;
         }
         self.contacts.begin();
@@ -322,7 +395,22 @@ impl World {
                 worst = (-gap / dmin, i as u32, j as u32);
             }
             let n = [dx / dist, dy / dist];
-            self.contacts.consider(((i as u64) << 32) | j as u64, a, b, n, s.r[i], s.r[j], gap, dmin, mu, e, h, &self.bodies, &self.vprev, &self.vfree);
+            self.contacts.consider(
+                ((i as u64) << 32) | j as u64,
+                a,
+                b,
+                n,
+                s.r[i],
+                s.r[j],
+                gap,
+                dmin,
+                mu,
+                e,
+                h,
+                &self.bodies,
+                &self.vprev,
+                &self.vfree,
+            );
         }
         let n_grains = s.len();
         for (w, wall) in self.walls.iter().enumerate() {
@@ -340,12 +428,34 @@ impl World {
                 if -gap / dmin > worst.0 {
                     worst = (-gap / dmin, gi as u32, u32::MAX - w as u32);
                 }
-                self.contacts.consider(((WALL_KEY + w as u64) << 32) | gi as u64, a, b, [wall.normal.x, wall.normal.y], 0.0, s.r[gi], gap, dmin, muw, e, h, &self.bodies, &self.vprev, &self.vfree);
+                self.contacts.consider(
+                    ((WALL_KEY + w as u64) << 32) | gi as u64,
+                    a,
+                    b,
+                    [wall.normal.x, wall.normal.y],
+                    0.0,
+                    s.r[gi],
+                    gap,
+                    dmin,
+                    muw,
+                    e,
+                    h,
+                    &self.bodies,
+                    &self.vprev,
+                    &self.vfree,
+                );
             }
         }
         self.stats.max_penetration = self.stats.max_penetration.max(worst.0);
         if worst.0 > self.params.max_penetration {
-            return Err(CdError::Penetration { step: self.step_count, t: self.t, i: worst.1, j: worst.2, fraction: worst.0, limit: self.params.max_penetration });
+            return Err(CdError::Penetration {
+                step: self.step_count,
+                t: self.t,
+                i: worst.1,
+                j: worst.2,
+                fraction: worst.0,
+                limit: self.params.max_penetration,
+            });
         }
         self.contacts.warm_start();
         for r in &self.contacts.rows {
@@ -365,7 +475,12 @@ impl World {
 
     fn gauss_seidel(&mut self) -> SolveInfo {
         let p = &self.params;
-        let s = Settings { tolerance: p.tolerance, residual_tolerance: p.residual_tolerance, max_iterations: p.max_iterations, relaxation: p.relaxation };
+        let s = Settings {
+            tolerance: p.tolerance,
+            residual_tolerance: p.residual_tolerance,
+            max_iterations: p.max_iterations,
+            relaxation: p.relaxation,
+        };
         let c = &mut self.contacts;
         let roll = (p.rolling_friction > 0.0).then_some((c.mr.as_mut_slice(), c.r_eff.as_slice(), p.rolling_friction));
         gauss_seidel(&mut c.rows, &mut self.bodies, &s, roll)
@@ -437,7 +552,11 @@ impl World {
         let th = self.params.theta;
         for (k, b) in self.bodies.iter().enumerate() {
             if !(b.v[0].is_finite() && b.v[1].is_finite() && b.v[2].is_finite()) {
-                return Err(CdError::NonFinite { step: self.step_count, t: self.t, grain: k as u32 });
+                return Err(CdError::NonFinite {
+                    step: self.step_count,
+                    t: self.t,
+                    grain: k as u32,
+                });
             }
         }
         let mut fast = (0usize, 0.0);
@@ -445,7 +564,11 @@ impl World {
         for gi in 0..s.len() {
             let k = self.body[gi] as usize;
             let (vm, vp) = (self.vprev[k], self.bodies[k].v);
-            let vt = [(1.0 - th) * vm[0] + th * vp[0], (1.0 - th) * vm[1] + th * vp[1], (1.0 - th) * vm[2] + th * vp[2]];
+            let vt = [
+                (1.0 - th) * vm[0] + th * vp[0],
+                (1.0 - th) * vm[1] + th * vp[1],
+                (1.0 - th) * vm[2] + th * vp[2],
+            ];
             s.x[gi] += h * vt[0];
             s.y[gi] += h * vt[1];
             s.theta[gi] += h * vt[2];
@@ -474,7 +597,12 @@ impl World {
         let scale = self.ek_max + self.w_abs + m * self.params.gravity * self.d_min;
         let allowed = self.e0 + self.ledger.external_work + self.params.energy_rise * scale;
         if en.total() > allowed {
-            return Err(CdError::EnergyRise { step: self.step_count, t: self.t, energy: en.total(), allowed });
+            return Err(CdError::EnergyRise {
+                step: self.step_count,
+                t: self.t,
+                energy: en.total(),
+                allowed,
+            });
         }
         Ok(())
     }
@@ -502,7 +630,12 @@ impl World {
     /// Energy balance E + D − E_0 − W.
     pub fn balance(&self) -> Balance {
         let now = self.energies();
-        Balance { e0: self.e0, now, ledger: self.ledger, residual: now.total() + self.ledger.dissipated() - self.e0 - self.ledger.external_work }
+        Balance {
+            e0: self.e0,
+            now,
+            ledger: self.ledger,
+            residual: now.total() + self.ledger.dissipated() - self.e0 - self.ledger.external_work,
+        }
     }
 
     /// Reset the energy reference (after a driver changes velocities by hand).

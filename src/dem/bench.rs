@@ -95,8 +95,12 @@ pub fn world_digest(w: &World) -> String {
 
 /// Process user + system CPU time [s] from /proc/self/stat (clock ticks of 1/100 s).
 fn process_cpu_s() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
-    let Some(rest) = stat.rsplit(')').next() else { return 0.0 };
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return 0.0;
+    };
+    let Some(rest) = stat.rsplit(')').next() else {
+        return 0.0;
+    };
     let f: Vec<&str> = rest.split_whitespace().collect();
     // after the command name: state is field 3, utime 14, stime 15 (1-based) → 11, 12 here
     let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
@@ -116,7 +120,10 @@ impl BenchCase {
 
 /// Scene parameters of the reference at step `dt` (table 4.2 otherwise).
 pub fn bench_params(case: BenchCase, dt: Real) -> DemParams {
-    let mut p = DemParams { dt, ..DemParams::default() };
+    let mut p = DemParams {
+        dt,
+        ..DemParams::default()
+    };
     p.watchdog.every = 0;
     match case {
         BenchCase::Full => {}
@@ -135,25 +142,38 @@ pub const LAMMPS_DT: Real = 1e-6;
 /// Radii of the reference scene (the same draw every time).
 fn bench_radii() -> Vec<Real> {
     let mut rng = SplitMix64(4242);
-    (0..2924).map(|_| 0.5 * (0.92e-3 + (1.38e-3 - 0.92e-3) * rng.next_f64())).collect()
+    (0..2924)
+        .map(|_| 0.5 * (0.92e-3 + (1.38e-3 - 0.92e-3) * rng.next_f64()))
+        .collect()
 }
 
 /// The step of a case: 1e-6 s (LAMMPS) if the pre-flight accepts it, else its largest
 /// accepted step rounded down to two significant digits. Returns (dt, pre-flight limit).
 pub fn bench_dt(case: BenchCase) -> (Real, Real) {
     let r = bench_radii();
-    let (lo, hi) = r.iter().fold((Real::INFINITY, 0.0 as Real), |(a, b), &x| (a.min(x), b.max(x)));
+    let (lo, hi) = r
+        .iter()
+        .fold((Real::INFINITY, 0.0 as Real), |(a, b), &x| (a.min(x), b.max(x)));
     let mean = r.iter().sum::<Real>() / r.len() as Real;
-    let sizes = crate::dem::preflight::SizeClasses { r_min: lo, r_mean: mean, r_max: hi };
+    let sizes = crate::dem::preflight::SizeClasses {
+        r_min: lo,
+        r_mean: mean,
+        r_max: hi,
+    };
     let p = bench_params(case, LAMMPS_DT);
-    let limit = crate::dem::preflight::time_scales(&p, sizes, true, LAMMPS_DT).iter().map(|t| t.limit).fold(Real::INFINITY, Real::min);
+    let limit = crate::dem::preflight::time_scales(&p, sizes, true, LAMMPS_DT)
+        .iter()
+        .map(|t| t.limit)
+        .fold(Real::INFINITY, Real::min);
     if LAMMPS_DT < limit {
         return (LAMMPS_DT, limit);
     }
     let e = limit.log10().floor() - 1.0;
     let q = 10f64.powf(e);
     let mut dt = (limit / q).floor() * q;
-    if dt >= limit { dt -= q; }
+    if dt >= limit {
+        dt -= q;
+    }
     (dt, limit)
 }
 
@@ -204,11 +224,16 @@ fn build_scene(case: BenchCase, dt: Real) -> Result<World, DemError> {
 pub fn run(case: BenchCase, threads: usize, steps: u64, dt: Option<Real>) -> Result<BenchResult, DemError> {
     let (auto_dt, preflight_limit_s) = bench_dt(case);
     let dt = dt.unwrap_or(auto_dt);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| DemError::Setup(e.to_string()))?;
     pool.install(|| {
         let mut w = bench_scene(case, dt)?;
         for wall in w.walls.iter_mut() {
-            if wall.name == "gate" { wall.active = false; }
+            if wall.name == "gate" {
+                wall.active = false;
+            }
         }
         w.run(200)?; // warm-up
         w.timers = PhaseTimers::default();
@@ -271,13 +296,24 @@ pub struct ScalingPoint {
 /// 100 warm-up steps. The packing and the contact network per grain are the same at every
 /// size, so the time per step should grow like n (neighbour build, pair and grain loops
 /// are all O(n)).
-pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> { scaling_point_with(base, n, threads, steps, None) }
+pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> {
+    scaling_point_with(base, n, threads, steps, None)
+}
 
 /// [`scaling_point`] with the world's `team_min_grains` set (None: default): `Some(0)`
 /// steps every size with a thread team when `threads` > 1 (no probing against one
 /// thread), to measure the crossover.
-pub fn scaling_point_with(base: &World, n: usize, threads: usize, steps: u64, team_min: Option<usize>) -> Result<ScalingPoint, DemError> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| DemError::Setup(e.to_string()))?;
+pub fn scaling_point_with(
+    base: &World,
+    n: usize,
+    threads: usize,
+    steps: u64,
+    team_min: Option<usize>,
+) -> Result<ScalingPoint, DemError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| DemError::Setup(e.to_string()))?;
     pool.install(|| {
         let l0 = 44.5 * 1.38e-3;
         let nb = base.state.len();
@@ -291,7 +327,18 @@ pub fn scaling_point_with(base: &World, n: usize, threads: usize, steps: u64, te
             let s = &base.state;
             for a in 0..take {
                 st.x.push(s.x[a] + c as Real * l0);
-                for (dst, src) in [(&mut st.y, &s.y), (&mut st.vx, &s.vx), (&mut st.vy, &s.vy), (&mut st.w, &s.w), (&mut st.theta, &s.theta), (&mut st.r, &s.r), (&mut st.m, &s.m), (&mut st.inv_m, &s.inv_m), (&mut st.inertia, &s.inertia), (&mut st.inv_i, &s.inv_i)] {
+                for (dst, src) in [
+                    (&mut st.y, &s.y),
+                    (&mut st.vx, &s.vx),
+                    (&mut st.vy, &s.vy),
+                    (&mut st.w, &s.w),
+                    (&mut st.theta, &s.theta),
+                    (&mut st.r, &s.r),
+                    (&mut st.m, &s.m),
+                    (&mut st.inv_m, &s.inv_m),
+                    (&mut st.inertia, &s.inertia),
+                    (&mut st.inv_i, &s.inv_i),
+                ] {
                     dst.push(src[a]);
                 }
             }

@@ -10,8 +10,8 @@ use crate::analysis::stop::{StopRule, Verdict};
 use crate::dem::energy::Ledger;
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
-use crate::dem::prep::{Column, box_walls};
 use crate::dem::preflight::Preflight;
+use crate::dem::prep::{Column, box_walls};
 use crate::dem::state::State;
 use crate::dem::timers::PhaseTimers;
 use crate::dem::world::World;
@@ -54,13 +54,30 @@ pub struct CollapseParams {
 impl CollapseParams {
     /// The stop rule in force.
     pub fn rule(&self) -> StopRule {
-        self.stop.unwrap_or(StopRule { ke_ratio: self.stop_ke_ratio, front_speed: f64::INFINITY, window: 0.0, t_min: self.t_min, t_max: self.t_max })
+        self.stop.unwrap_or(StopRule {
+            ke_ratio: self.stop_ke_ratio,
+            front_speed: f64::INFINITY,
+            window: 0.0,
+            t_min: self.t_min,
+            t_max: self.t_max,
+        })
     }
 }
 
 impl Default for CollapseParams {
     fn default() -> Self {
-        Self { t_max: 10.0, t_min: 1.0, stop_ke_ratio: 1e-6, sample_every: 0.01, snapshots: vec![], link_gap: 0.01, right_wall_at: 0.0, stop: None, link_gap_sensitivity: vec![], inertial_cell: 3.0 }
+        Self {
+            t_max: 10.0,
+            t_min: 1.0,
+            stop_ke_ratio: 1e-6,
+            sample_every: 0.01,
+            snapshots: vec![],
+            link_gap: 0.01,
+            right_wall_at: 0.0,
+            stop: None,
+            link_gap_sensitivity: vec![],
+            inertial_cell: 3.0,
+        }
     }
 }
 
@@ -107,7 +124,15 @@ impl Snapshot {
     pub fn to_vtp(&self) -> String {
         use crate::vtk::{Field, polydata};
         let s = &self.state;
-        polydata(&s.x, &s.y, &[("radius", Field::Scalar(&s.r)), ("velocity", Field::Vector(&s.vx, &s.vy)), ("spin", Field::Scalar(&s.w))])
+        polydata(
+            &s.x,
+            &s.y,
+            &[
+                ("radius", Field::Scalar(&s.r)),
+                ("velocity", Field::Vector(&s.vx, &s.vy)),
+                ("spin", Field::Scalar(&s.w)),
+            ],
+        )
     }
 }
 
@@ -156,25 +181,55 @@ pub struct CollapseResult {
 
 impl CollapseResult {
     /// Final run-out L_f [m].
-    pub fn runout(&self) -> Real { self.samples.last().map(|s| s.length).unwrap_or(self.l0) }
+    pub fn runout(&self) -> Real {
+        self.samples.last().map(|s| s.length).unwrap_or(self.l0)
+    }
     /// Normalised run-out ΔL = (L_f − L_0)/L_0 (D02).
-    pub fn delta_l(&self) -> Real { (self.runout() - self.l0) / self.l0 }
+    pub fn delta_l(&self) -> Real {
+        (self.runout() - self.l0) / self.l0
+    }
 }
 
 /// The grains of a state as an analysis [`Cloud`].
 pub fn cloud(s: &State, t: Real) -> Cloud {
-    Cloud { t, x: s.x.clone(), y: s.y.clone(), half: s.r.clone(), mass: s.m.clone(), vx: s.vx.clone(), vy: s.vy.clone() }
+    Cloud {
+        t,
+        x: s.x.clone(),
+        y: s.y.clone(),
+        half: s.r.clone(),
+        mass: s.m.clone(),
+        vx: s.vx.clone(),
+        vy: s.vy.clone(),
+    }
 }
 
 fn sample(w: &World, t0: Real, gap: Real, grain: Grain) -> Sample {
     let s = &w.state;
-    let f = front(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, Link::Contact { gap });
+    let f = front(
+        &Body {
+            x: &s.x,
+            y: &s.y,
+            half: &s.r,
+            mass: &s.m,
+        },
+        Link::Contact { gap },
+    );
     let inertial = coarse_grained(&cloud(s, w.t - t0), grain);
     let b = w.balance();
     let e = b.energies;
     Sample {
-        t: w.t - t0, length: f.length, height: f.height, n_main: f.n_main, ep: e.ep, ekx: e.ekx, eky: e.eky, erot: e.erot,
-        elastic: e.elastic(), ledger: w.ledger, residual: if w.params.ledger { b.residual } else { 0.0 }, inertial,
+        t: w.t - t0,
+        length: f.length,
+        height: f.height,
+        n_main: f.n_main,
+        ep: e.ep,
+        ekx: e.ekx,
+        eky: e.eky,
+        erot: e.erot,
+        elastic: e.elastic(),
+        ledger: w.ledger,
+        residual: if w.params.ledger { b.residual } else { 0.0 },
+        inertial,
     }
 }
 
@@ -195,9 +250,24 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
     let mut snaps: Vec<Real> = cp.snapshots.iter().map(|s| s * tau_c).collect();
     snaps.sort_by(|a, b| a.partial_cmp(b).unwrap());
     let mut snapshots = Vec::new();
-    let grain = Grain { cell: cp.inertial_cell * d_mean, d: d_mean, rho_s: params.density, g };
+    let grain = Grain {
+        cell: cp.inertial_cell * d_mean,
+        d: d_mean,
+        rho_s: params.density,
+        g,
+    };
     let gaps: Vec<Real> = cp.link_gap_sensitivity.iter().map(|k| k * d_mean).collect();
-    let gap_row = |w: &World| lengths_for_gaps(&Body { x: &w.state.x, y: &w.state.y, half: &w.state.r, mass: &w.state.m }, &gaps);
+    let gap_row = |w: &World| {
+        lengths_for_gaps(
+            &Body {
+                x: &w.state.x,
+                y: &w.state.y,
+                half: &w.state.r,
+                mass: &w.state.m,
+            },
+            &gaps,
+        )
+    };
     let rule = cp.rule();
     let mut gap_lengths = vec![gap_row(&w)];
     let mut samples = vec![sample(&w, 0.0, gap, grain)];
@@ -212,7 +282,10 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
         }
         w.run_until(t_next)?;
         while next_snap < snaps.len() && snaps[next_snap] <= w.t + 0.5 * params.dt {
-            snapshots.push(Snapshot { t: w.t, state: w.state.clone() });
+            snapshots.push(Snapshot {
+                t: w.t,
+                state: w.state.clone(),
+            });
             next_snap += 1;
         }
         max_ov = max_ov.max(w.info.max_overlap_fraction);
@@ -230,10 +303,25 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
         }
     };
     let wall_s = started.elapsed().as_secs_f64();
-    snapshots.push(Snapshot { t: w.t, state: w.state.clone() });
+    snapshots.push(Snapshot {
+        t: w.t,
+        state: w.state.clone(),
+    });
     Ok(CollapseResult {
-        l0: column.l0, h0: column.h0, tau_c, samples, snapshots, stop, steps: w.steps, dt: params.dt, wall_s,
-        timers: w.timers, preflight, max_overlap_fraction: max_ov, gap_lengths, d_mean,
+        l0: column.l0,
+        h0: column.h0,
+        tau_c,
+        samples,
+        snapshots,
+        stop,
+        steps: w.steps,
+        dt: params.dt,
+        wall_s,
+        timers: w.timers,
+        preflight,
+        max_overlap_fraction: max_ov,
+        gap_lengths,
+        d_mean,
     })
 }
 
@@ -241,7 +329,11 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
 pub fn mean_std(v: &[Real]) -> (Real, Real) {
     let n = v.len() as Real;
     let m = v.iter().sum::<Real>() / n.max(1.0);
-    let s = if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<Real>() / (n - 1.0)).sqrt() } else { 0.0 };
+    let s = if v.len() > 1 {
+        (v.iter().map(|x| (x - m) * (x - m)).sum::<Real>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
     (m, s)
 }
 
@@ -291,13 +383,25 @@ pub struct WorkPrecisionRow {
 /// Run each variant as an ensemble (first variant = reference, the finest): the column is
 /// re-settled at the variant's stiffness and step, then collapsed from `members` starts
 /// (member 0 as settled, the others with every grain moved by ≤ `perturbation` m, seeded).
-pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, variants: &[Variant], members: usize, perturbation: Real, seed: u64) -> Result<Vec<WorkPrecisionRow>, DemError> {
+pub fn work_precision(
+    column: &Column,
+    base: &DemParams,
+    cp: &CollapseParams,
+    variants: &[Variant],
+    members: usize,
+    perturbation: Real,
+    seed: u64,
+) -> Result<Vec<WorkPrecisionRow>, DemError> {
     use rayon::prelude::*;
     let mut rows: Vec<WorkPrecisionRow> = Vec::new();
     for v in variants {
         let mut p = base.softened(v.stiffness_factor);
         let (r_min, _, _) = column.state.radius_stats();
-        let sizes = crate::dem::preflight::SizeClasses { r_min, r_mean: r_min, r_max: r_min };
+        let sizes = crate::dem::preflight::SizeClasses {
+            r_min,
+            r_mean: r_min,
+            r_max: r_min,
+        };
         let tc = crate::dem::preflight::time_scales(&p, sizes, false, 1.0)[0].value;
         p.dt = v.dt_fraction * tc;
         let t0 = Instant::now();
@@ -311,18 +415,44 @@ pub fn work_precision(column: &Column, base: &DemParams, cp: &CollapseParams, va
         let delta_l: Vec<Real> = runs.iter().map(|r| r.delta_l()).collect();
         let n = delta_l.len() as Real;
         let (mean, spread) = mean_std(&delta_l);
-        let hf = runs.iter().map(|r| r.samples.last().map(|s| s.height / r.l0).unwrap_or(0.0)).sum::<Real>() / n;
-        let (ref_mean, ref_spread, ref_n) = rows.first().map(|x| (x.mean, x.spread, x.delta_l.len() as Real)).unwrap_or((mean, spread, n));
-        let error = if rows.is_empty() { 0.0 } else { (mean - ref_mean).abs() / ref_mean.abs().max(1e-12) };
+        let hf = runs
+            .iter()
+            .map(|r| r.samples.last().map(|s| s.height / r.l0).unwrap_or(0.0))
+            .sum::<Real>()
+            / n;
+        let (ref_mean, ref_spread, ref_n) = rows
+            .first()
+            .map(|x| (x.mean, x.spread, x.delta_l.len() as Real))
+            .unwrap_or((mean, spread, n));
+        let error = if rows.is_empty() {
+            0.0
+        } else {
+            (mean - ref_mean).abs() / ref_mean.abs().max(1e-12)
+        };
         let error_spread = (spread * spread / n + ref_spread * ref_spread / ref_n).sqrt() / ref_mean.abs().max(1e-12);
         rows.push(WorkPrecisionRow {
-            variant: v.clone(), dt: p.dt, mean, spread, h_final_over_l0: hf, error, error_spread,
-            wall_s: runs.iter().map(|r| r.wall_s).sum::<f64>() / n, settle_wall_s, steps: runs[0].steps, delta_l,
-            duration: runs.iter().map(|r| r.samples.last().map_or(0.0, |s| s.t) / r.tau_c).collect(),
-            ep_final: runs.iter().map(|r| match (r.samples.first(), r.samples.last()) {
-                (Some(a), Some(b)) if a.ep > 0.0 => b.ep / a.ep,
-                _ => Real::NAN,
-            }).collect(),
+            variant: v.clone(),
+            dt: p.dt,
+            mean,
+            spread,
+            h_final_over_l0: hf,
+            error,
+            error_spread,
+            wall_s: runs.iter().map(|r| r.wall_s).sum::<f64>() / n,
+            settle_wall_s,
+            steps: runs[0].steps,
+            delta_l,
+            duration: runs
+                .iter()
+                .map(|r| r.samples.last().map_or(0.0, |s| s.t) / r.tau_c)
+                .collect(),
+            ep_final: runs
+                .iter()
+                .map(|r| match (r.samples.first(), r.samples.last()) {
+                    (Some(a), Some(b)) if a.ep > 0.0 => b.ep / a.ep,
+                    _ => Real::NAN,
+                })
+                .collect(),
         });
     }
     Ok(rows)

@@ -38,7 +38,16 @@ pub struct CompressionParams {
 }
 
 impl Default for CompressionParams {
-    fn default() -> Self { Self { strain_rate: 0.1, max_strain: 2e-3, fit_strain: 1e-3, seating_stress: 100.0, poisson: 0.22, sample_strain: 2e-5 } }
+    fn default() -> Self {
+        Self {
+            strain_rate: 0.1,
+            max_strain: 2e-3,
+            fit_strain: 1e-3,
+            seating_stress: 100.0,
+            poisson: 0.22,
+            sample_strain: 2e-5,
+        }
+    }
 }
 
 /// One point of the stress–strain curve.
@@ -68,9 +77,15 @@ pub struct CompressionResult {
 }
 
 /// Compress `column` (gate closed, rigid frictional side walls) with `params`.
-pub fn compression_test(column: &Column, params: &DemParams, cp: &CompressionParams) -> Result<CompressionResult, DemError> {
+pub fn compression_test(
+    column: &Column,
+    params: &DemParams,
+    cp: &CompressionParams,
+) -> Result<CompressionResult, DemError> {
     let mut walls = box_walls(column.l0);
-    let top = (0..column.state.len()).map(|i| column.state.y[i] + column.state.r[i]).fold(0.0, Real::max);
+    let top = (0..column.state.len())
+        .map(|i| column.state.y[i] + column.state.r[i])
+        .fold(0.0, Real::max);
     let plate = Wall::ceiling("plate", top + 0.01 * column.l0.min(top));
     let h_ref = top;
     let v = cp.strain_rate * h_ref;
@@ -101,12 +116,22 @@ pub fn compression_test(column: &Column, params: &DemParams, cp: &CompressionPar
     let y_seat = w.walls[3].origin.y;
     let height = y_seat;
     let (s0, l0s) = (stress(&w), lateral(&w));
-    let mut curve = vec![StressStrain { strain: 0.0, stress: s0, lateral: l0s }];
+    let mut curve = vec![StressStrain {
+        strain: 0.0,
+        stress: s0,
+        lateral: l0s,
+    }];
     loop {
         w.run(chunk)?;
         let eps = (y_seat - w.walls[3].origin.y) / height;
-        curve.push(StressStrain { strain: eps, stress: stress(&w), lateral: lateral(&w) });
-        if eps >= cp.max_strain { break; }
+        curve.push(StressStrain {
+            strain: eps,
+            stress: stress(&w),
+            lateral: lateral(&w),
+        });
+        if eps >= cp.max_strain {
+            break;
+        }
     }
     let fit: Vec<&StressStrain> = curve.iter().filter(|c| c.strain <= cp.fit_strain).collect();
     let (mut sxx, mut sxy, mut sxl) = (0.0, 0.0, 0.0);
@@ -120,5 +145,11 @@ pub fn compression_test(column: &Column, params: &DemParams, cp: &CompressionPar
     let k0 = sxl / syy.max(1e-300);
     let nu = cp.poisson;
     let young = modulus * (1.0 + nu) * (1.0 - 2.0 * nu) / (1.0 - nu);
-    Ok(CompressionResult { curve, modulus, young, k0, height })
+    Ok(CompressionResult {
+        curve,
+        modulus,
+        young,
+        k0,
+        height,
+    })
 }

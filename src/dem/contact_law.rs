@@ -177,7 +177,11 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
             let mut th = select(plastic, th_pl, th_el);
             if IMPLICIT {
                 let cap = if c.cap_dashpot { m_max } else { Real::INFINITY };
-                out.roll = RollDashpot { c: select(plastic, 0.0, c.cr), m_spring: m, m_max: cap };
+                out.roll = RollDashpot {
+                    c: select(plastic, 0.0, c.cr),
+                    m_spring: m,
+                    m_max: cap,
+                };
             } else if !plastic {
                 m -= c.cr * wr;
                 if c.cap_dashpot && m.abs() > m_max {
@@ -208,7 +212,14 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
     /// Stored energy of the springs of a contact that separates (booked as dissipated).
     #[inline(always)]
     pub fn released(c: &LawCoeffs, h: &ContactState) -> (Real, Real) {
-        (0.5 * c.kt * h.tangential * h.tangential, if ROLLING { 0.5 * c.kr * h.rolling * h.rolling } else { 0.0 })
+        (
+            0.5 * c.kt * h.tangential * h.tangential,
+            if ROLLING {
+                0.5 * c.kr * h.rolling * h.rolling
+            } else {
+                0.0
+            },
+        )
     }
 }
 
@@ -252,14 +263,36 @@ pub(crate) struct PairBatchOut {
 impl Default for PairBatch {
     fn default() -> Self {
         let z = [0.0; BATCH];
-        PairBatch { dx: z, dy: z, rsq: z, radsum: z, dvx: z, dvy: z, w_i: z, w_j: z, r_i: z, r_j: z, r_roll: z, cn: z, h: [z; 4] }
+        PairBatch {
+            dx: z,
+            dy: z,
+            rsq: z,
+            radsum: z,
+            dvx: z,
+            dvy: z,
+            w_i: z,
+            w_j: z,
+            r_i: z,
+            r_j: z,
+            r_roll: z,
+            cn: z,
+            h: [z; 4],
+        }
     }
 }
 
 impl Default for PairBatchOut {
     fn default() -> Self {
         let z = [0.0; BATCH];
-        PairBatchOut { overlap: z, fx: z, fy: z, t_i: z, t_j: z, roll: [z; 3], work: [z; 3] }
+        PairBatchOut {
+            overlap: z,
+            fx: z,
+            fy: z,
+            t_i: z,
+            t_j: z,
+            roll: [z; 3],
+            work: [z; 3],
+        }
     }
 }
 
@@ -293,7 +326,12 @@ impl<const ROLLING: bool, const IMPLICIT: bool, const LEDGER: bool> Law<ROLLING,
                 r_roll: b.r_roll[l],
                 cn: b.cn[l],
             };
-            let mut h = ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] };
+            let mut h = ContactState {
+                tangential: b.h[0][l],
+                rolling: b.h[1][l],
+                ft: b.h[2][l],
+                mr: b.h[3][l],
+            };
             let r = Self::eval(c, &pin, &mut h, dt);
             b.h[0][l] = h.tangential;
             b.h[1][l] = h.rolling;
@@ -319,10 +357,22 @@ mod tests {
     use super::*;
     use crate::dem::params::{ContactParams, RollingParams};
 
-    fn coeffs() -> LawCoeffs { LawCoeffs::new(&ContactParams::grain(), &RollingParams::default()) }
+    fn coeffs() -> LawCoeffs {
+        LawCoeffs::new(&ContactParams::grain(), &RollingParams::default())
+    }
 
     fn pin(overlap: Real, v_rel: Vec2) -> PairIn {
-        PairIn { n: Vec2::new(0.0, 1.0), overlap, v_rel, w_i: 0.0, w_j: 0.0, arm_i: 5e-4, arm_j: 5e-4, r_roll: 2.5e-4, cn: 80.0 }
+        PairIn {
+            n: Vec2::new(0.0, 1.0),
+            overlap,
+            v_rel,
+            w_i: 0.0,
+            w_j: 0.0,
+            arm_i: 5e-4,
+            arm_j: 5e-4,
+            r_roll: 2.5e-4,
+            cn: 80.0,
+        }
     }
 
     #[test]
@@ -336,7 +386,10 @@ mod tests {
     #[test]
     fn coulomb_cap_rescales_spring() {
         let c = coeffs();
-        let mut h = ContactState { tangential: 1e-3, ..Default::default() };
+        let mut h = ContactState {
+            tangential: 1e-3,
+            ..Default::default()
+        };
         let p = pin(1e-7, Vec2::new(0.0, 0.0));
         let o = Law::<false, true, false>::eval(&c, &p, &mut h, 1e-7);
         let fn_ = c.kn * 1e-7;
@@ -365,14 +418,23 @@ mod tests {
         let stored_t = 0.5 * c.kt * h.tangential * h.tangential;
         let stored_r = 0.5 * c.kr * h.rolling * h.rolling;
         assert!(stored_t > 0.0 && h.ft.abs() < c.mu * c.kn * 1e-6, "still sticking");
-        assert!(wt.abs() <= 1e-9 * stored_t, "tangential dissipation {wt:e} booked during pure stick (stored {stored_t:e})");
-        assert!(wr.abs() <= 1e-9 * stored_r, "rolling dissipation {wr:e} booked during pure stick (stored {stored_r:e})");
+        assert!(
+            wt.abs() <= 1e-9 * stored_t,
+            "tangential dissipation {wt:e} booked during pure stick (stored {stored_t:e})"
+        );
+        assert!(
+            wr.abs() <= 1e-9 * stored_r,
+            "rolling dissipation {wr:e} booked during pure stick (stored {stored_r:e})"
+        );
     }
 
     #[test]
     fn rolling_cap_and_equal_opposite_moments() {
         let c = coeffs();
-        let mut h = ContactState { rolling: 1.0, ..Default::default() };
+        let mut h = ContactState {
+            rolling: 1.0,
+            ..Default::default()
+        };
         let p = pin(1e-7, Vec2::zeros());
         let o = Law::<true, true, false>::eval(&c, &p, &mut h, 1e-7);
         let m_max = c.mu_r * 2.5e-4 * c.kn * 1e-7;
@@ -383,15 +445,39 @@ mod tests {
 
     type EvalPairs = unsafe fn(&LawCoeffs, &mut PairBatch, &mut PairBatchOut, usize, Real);
 
-    fn eval_base<const R: bool, const I: bool, const L: bool>(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Law::<R, I, L>::eval_pairs(c, b, o, nb, dt) }
+    fn eval_base<const R: bool, const I: bool, const L: bool>(
+        c: &LawCoeffs,
+        b: &mut PairBatch,
+        o: &mut PairBatchOut,
+        nb: usize,
+        dt: Real,
+    ) {
+        Law::<R, I, L>::eval_pairs(c, b, o, nb, dt)
+    }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn eval_avx2<const R: bool, const I: bool, const L: bool>(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Law::<R, I, L>::eval_pairs(c, b, o, nb, dt) }
+    unsafe fn eval_avx2<const R: bool, const I: bool, const L: bool>(
+        c: &LawCoeffs,
+        b: &mut PairBatch,
+        o: &mut PairBatchOut,
+        nb: usize,
+        dt: Real,
+    ) {
+        Law::<R, I, L>::eval_pairs(c, b, o, nb, dt)
+    }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    unsafe fn eval_avx512<const R: bool, const I: bool, const L: bool>(c: &LawCoeffs, b: &mut PairBatch, o: &mut PairBatchOut, nb: usize, dt: Real) { Law::<R, I, L>::eval_pairs(c, b, o, nb, dt) }
+    unsafe fn eval_avx512<const R: bool, const I: bool, const L: bool>(
+        c: &LawCoeffs,
+        b: &mut PairBatch,
+        o: &mut PairBatchOut,
+        nb: usize,
+        dt: Real,
+    ) {
+        Law::<R, I, L>::eval_pairs(c, b, o, nb, dt)
+    }
 
     /// The batched law built for each vector width this CPU has (the pair pass runs the
     /// widest) gives the same bits as one scalar call per contact, over sticking, sliding,
@@ -453,7 +539,17 @@ mod tests {
             b.h[3][l] = h.mr;
             let dd = b.rsq[l].sqrt();
             let inv = 1.0 / dd;
-            let p = PairIn { n: Vec2::new(dx * inv, dy * inv), overlap: ri + rj - dd, v_rel: Vec2::new(b.dvx[l], b.dvy[l]), w_i: b.w_i[l], w_j: b.w_j[l], arm_i: ri, arm_j: rj, r_roll: b.r_roll[l], cn: b.cn[l] };
+            let p = PairIn {
+                n: Vec2::new(dx * inv, dy * inv),
+                overlap: ri + rj - dd,
+                v_rel: Vec2::new(b.dvx[l], b.dvy[l]),
+                w_i: b.w_i[l],
+                w_j: b.w_j[l],
+                arm_i: ri,
+                arm_j: rj,
+                r_roll: b.r_roll[l],
+                cn: b.cn[l],
+            };
             let mut hh = h;
             let r = Law::<R, I, L>::eval(&c, &p, &mut hh, 1e-6);
             want.push((hh, r, p.overlap));
@@ -463,23 +559,47 @@ mod tests {
         let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let (mut touching, mut sliding, mut plastic) = (0, 0, 0);
         for (l, (h, r, ov)) in want.iter().enumerate() {
-            if *ov <= 0.0 { continue; }
+            if *ov <= 0.0 {
+                continue;
+            }
             touching += 1;
             // on the Coulomb cone: |F_t| = μ F_n (sliding lane)
             let fnn = r.f.dot(&Vec2::new(b.dx[l], b.dy[l])) / b.rsq[l].sqrt();
             sliding += usize::from((h.ft.abs() - c.mu * fnn).abs() <= 1e-12 * fnn.abs());
             plastic += usize::from(R && I && r.roll.c == 0.0);
-            assert_eq!(bits(&[b.h[0][l], b.h[1][l], b.h[2][l], b.h[3][l]]), bits(&[h.tangential, h.rolling, h.ft, h.mr]), "history, lane {l}");
-            assert_eq!(bits(&[o.overlap[l], o.fx[l], o.fy[l], o.t_i[l], o.t_j[l]]), bits(&[*ov, r.f.x, r.f.y, r.t_i, r.t_j]), "forces, lane {l}");
-            assert_eq!(bits(&[o.roll[0][l], o.work[0][l], o.work[1][l], o.work[2][l]]), bits(&[r.roll.c, r.work.normal, r.work.tangential, r.work.rolling]), "dashpot/work, lane {l}");
+            assert_eq!(
+                bits(&[b.h[0][l], b.h[1][l], b.h[2][l], b.h[3][l]]),
+                bits(&[h.tangential, h.rolling, h.ft, h.mr]),
+                "history, lane {l}"
+            );
+            assert_eq!(
+                bits(&[o.overlap[l], o.fx[l], o.fy[l], o.t_i[l], o.t_j[l]]),
+                bits(&[*ov, r.f.x, r.f.y, r.t_i, r.t_j]),
+                "forces, lane {l}"
+            );
+            assert_eq!(
+                bits(&[o.roll[0][l], o.work[0][l], o.work[1][l], o.work[2][l]]),
+                bits(&[r.roll.c, r.work.normal, r.work.tangential, r.work.rolling]),
+                "dashpot/work, lane {l}"
+            );
             if r.roll.c > 0.0 {
-                assert_eq!(bits(&[o.roll[1][l], o.roll[2][l]]), bits(&[r.roll.m_spring, r.roll.m_max]), "dashpot, lane {l}");
+                assert_eq!(
+                    bits(&[o.roll[1][l], o.roll[2][l]]),
+                    bits(&[r.roll.m_spring, r.roll.m_max]),
+                    "dashpot, lane {l}"
+                );
             }
         }
         assert!(touching > 10 && touching < nb, "touching lanes: {touching} of {nb}");
-        assert!(sliding > 0 && sliding < touching, "sliding lanes: {sliding} of {touching}");
+        assert!(
+            sliding > 0 && sliding < touching,
+            "sliding lanes: {sliding} of {touching}"
+        );
         if R && I {
-            assert!(plastic > 0 && plastic < touching, "rolling-plastic lanes: {plastic} of {touching}");
+            assert!(
+                plastic > 0 && plastic < touching,
+                "rolling-plastic lanes: {plastic} of {touching}"
+            );
         }
     }
 

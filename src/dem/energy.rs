@@ -37,9 +37,13 @@ impl Ledger {
         self.normal_damping + self.tangential + self.rolling + self.wall_normal + self.wall_tangential
     }
     /// D07 collisional work W_c (grain–grain normal dashpot + wall normal dashpot).
-    pub fn collisional(&self) -> Real { self.normal_damping + self.wall_normal }
+    pub fn collisional(&self) -> Real {
+        self.normal_damping + self.wall_normal
+    }
     /// D07 frictional work W_f (tangential + rolling + wall tangential).
-    pub fn frictional(&self) -> Real { self.tangential + self.rolling + self.wall_tangential }
+    pub fn frictional(&self) -> Real {
+        self.tangential + self.rolling + self.wall_tangential
+    }
 }
 
 impl AddAssign for Ledger {
@@ -74,11 +78,17 @@ pub struct Energies {
 
 impl Energies {
     /// Translational kinetic energy E_k = E_kx + E_ky (eq 4.11).
-    pub fn ek(&self) -> Real { self.ekx + self.eky }
+    pub fn ek(&self) -> Real {
+        self.ekx + self.eky
+    }
     /// Stored elastic energy.
-    pub fn elastic(&self) -> Real { self.elastic_normal + self.elastic_tangential + self.elastic_rolling }
+    pub fn elastic(&self) -> Real {
+        self.elastic_normal + self.elastic_tangential + self.elastic_rolling
+    }
     /// Mechanical + stored energy.
-    pub fn total(&self) -> Real { self.ep + self.ek() + self.erot + self.elastic() }
+    pub fn total(&self) -> Real {
+        self.ep + self.ek() + self.erot + self.elastic()
+    }
 }
 
 /// Balance at one instant: residual = E_0 + W_ext − (E_p + E_k + E_rot + elastic + dissipated).

@@ -30,7 +30,9 @@ pub enum DemError {
         grain: u32,
     },
     /// Overlap beyond the watchdog limit.
-    #[error("overlap {fraction:.3} d between grains {i} and {j} at step {step} (t = {t:.6e} s) exceeds {limit} d; reduce dt or raise k_n")]
+    #[error(
+        "overlap {fraction:.3} d between grains {i} and {j} at step {step} (t = {t:.6e} s) exceeds {limit} d; reduce dt or raise k_n"
+    )]
     Overlap {
         /// Step number.
         step: u64,
@@ -46,7 +48,9 @@ pub enum DemError {
         limit: Real,
     },
     /// Mechanical energy rose above the input without work to explain it.
-    #[error("energy rose to {energy:.4e} J/m > allowed {allowed:.4e} J/m at step {step} (t = {t:.6e} s); fastest grain {grain}; the step is probably unstable")]
+    #[error(
+        "energy rose to {energy:.4e} J/m > allowed {allowed:.4e} J/m at step {step} (t = {t:.6e} s); fastest grain {grain}; the step is probably unstable"
+    )]
     EnergyRise {
         /// Step number.
         step: u64,

@@ -31,8 +31,8 @@
 
 use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
-use crate::dem::timers::Clock;
 use crate::dem::passes::Rd;
+use crate::dem::timers::Clock;
 use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, RollLists, World, chunked};
 use crate::math::Real;
 
@@ -77,7 +77,9 @@ impl World {
         let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
         let (inv_m, inv_i) = (&s.inv_m[..], &s.inv_i[..]);
         let (fx, fy, tq) = (&self.fx[..], &self.fy[..], &self.tq[..]);
-        debug_assert!(s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n);
+        debug_assert!(
+            s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n
+        );
         let lim = 0.25 * self.nl.skin * self.nl.skin;
         let have_x0 = self.nl.x0.len() == n;
         let (x0, y0) = (&self.nl.x0[..], &self.nl.y0[..]);
@@ -86,7 +88,15 @@ impl World {
             let mut part = Partial::default();
             // SAFETY: chunks are disjoint grain ranges of arrays of length n
             unsafe {
-                let (vxn, vyn, wn) = kick_range::<L>(lo, hi, h, (&inv_m[lo..hi], &inv_i[lo..hi]), (&fx[lo..hi], &fy[lo..hi], &tq[lo..hi]), (vx, vy, w), &mut part);
+                let (vxn, vyn, wn) = kick_range::<L>(
+                    lo,
+                    hi,
+                    h,
+                    (&inv_m[lo..hi], &inv_i[lo..hi]),
+                    (&fx[lo..hi], &fy[lo..hi], &tq[lo..hi]),
+                    (vx, vy, w),
+                    &mut part,
+                );
                 if DRIFT {
                     part.moved = drift_range::<THETA>(lo, dt, (vxn, vyn, wn), (x, y, th), x0y0, lim);
                 }
@@ -111,7 +121,16 @@ impl World {
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;
         // SAFETY: the lists are not written during the sweep
-        let led = unsafe { dashpot_sweep::<L>(&Dashpots::of(&mut self.roll), self.walls.len(), h, &mut s.w[..], &s.inv_i[..], &s.inertia[..]) };
+        let led = unsafe {
+            dashpot_sweep::<L>(
+                &Dashpots::of(&mut self.roll),
+                self.walls.len(),
+                h,
+                &mut s.w[..],
+                &s.inv_i[..],
+                &s.inertia[..],
+            )
+        };
         if L {
             self.ledger += led;
         }
@@ -124,8 +143,9 @@ impl World {
     /// Whether two steps may be joined ([`World::steps_with`]): the implicit dashpot is on
     /// and no grain is prescribed (1/m = 0: the kick books the driver's work from the
     /// velocities before it, which the joined translational kick changes meanwhile).
-    pub(crate) fn join_ok<const IMP: bool>(&self) -> bool { IMP && self.state.inv_m.iter().all(|&v| v != 0.0) }
-
+    pub(crate) fn join_ok<const IMP: bool>(&self) -> bool {
+        IMP && self.state.inv_m.iter().all(|&v| v != 0.0)
+    }
 }
 
 /// What the spin job returns: the ledger parts of its sweep, kick and sweep (in that
@@ -178,7 +198,14 @@ impl<const L: bool> SpinJob<L> {
     pub(crate) unsafe fn run(&self) -> SpinOut {
         let (n, h, on) = (self.n, self.h, self.on);
         // SAFETY: caller's contract
-        let (w, inv_i, inertia, tq) = unsafe { (std::slice::from_raw_parts_mut(self.w.0, n), self.inv_i.slice(0, n), self.inertia.slice(0, n), self.tq.slice(0, n)) };
+        let (w, inv_i, inertia, tq) = unsafe {
+            (
+                std::slice::from_raw_parts_mut(self.w.0, n),
+                self.inv_i.slice(0, n),
+                self.inertia.slice(0, n),
+                self.tq.slice(0, n),
+            )
+        };
         let t0 = Clock::now(on);
         let l2 = unsafe { dashpot_sweep::<L>(&self.d, self.nwalls, h, w, inv_i, inertia) };
         let t1 = Clock::now(on);
@@ -189,7 +216,11 @@ impl<const L: bool> SpinJob<L> {
         }
         let t2 = Clock::now(on);
         let l1 = unsafe { dashpot_sweep::<L>(&self.d, self.nwalls, h, w, inv_i, inertia) };
-        SpinOut { ledger: [l2, Ledger::default(), l1], sweep_s: t0.to(t1) + t2.elapsed(), kick_s: t1.to(t2) }
+        SpinOut {
+            ledger: [l2, Ledger::default(), l1],
+            sweep_s: t0.to(t1) + t2.elapsed(),
+            kick_s: t1.to(t2),
+        }
     }
 }
 
@@ -204,7 +235,12 @@ pub(crate) struct Dashpots {
 
 impl Dashpots {
     pub(crate) fn of(rl: &mut RollLists) -> Self {
-        Dashpots { items: Rd::of(&mut rl.items), count: Rd::new(&rl.count), witems: Rd::of(&mut rl.witems), wcount: Rd::new(&rl.wcount) }
+        Dashpots {
+            items: Rd::of(&mut rl.items),
+            count: Rd::new(&rl.count),
+            witems: Rd::of(&mut rl.witems),
+            wcount: Rd::new(&rl.wcount),
+        }
     }
 }
 
@@ -214,13 +250,36 @@ impl Dashpots {
 ///
 /// # Safety
 /// Nothing writes the lists meanwhile.
-unsafe fn dashpot_sweep<const L: bool>(rl: &Dashpots, nwalls: usize, h: Real, w: &mut [Real], inv_i: &[Real], inertia: &[Real]) -> Ledger {
+unsafe fn dashpot_sweep<const L: bool>(
+    rl: &Dashpots,
+    nwalls: usize,
+    h: Real,
+    w: &mut [Real],
+    inv_i: &[Real],
+    inertia: &[Real],
+) -> Ledger {
     let mut led = Ledger::default();
     // SAFETY: caller's contract; the counts index the lists as the passes wrote them
-    let (count, items, wcount, witems) = unsafe { (rl.count.slice(0, rl.count.len()), rl.items.slice(0, rl.items.len()), rl.wcount.slice(0, rl.wcount.len()), rl.witems.slice(0, rl.witems.len())) };
+    let (count, items, wcount, witems) = unsafe {
+        (
+            rl.count.slice(0, rl.count.len()),
+            rl.items.slice(0, rl.items.len()),
+            rl.wcount.slice(0, rl.wcount.len()),
+            rl.witems.slice(0, rl.witems.len()),
+        )
+    };
     for (c, &cnt) in count.iter().enumerate() {
         for it in &items[c * PAIR_CHUNK..c * PAIR_CHUNK + cnt as usize] {
-            pair_impulse::<L>(&it.d, h, w, inv_i, inertia, it.i as usize, Some(it.j as usize), &mut led);
+            pair_impulse::<L>(
+                &it.d,
+                h,
+                w,
+                inv_i,
+                inertia,
+                it.i as usize,
+                Some(it.j as usize),
+                &mut led,
+            );
         }
     }
     let n = w.len();
@@ -248,12 +307,26 @@ unsafe fn dashpot_sweep<const L: bool>(rl: &Dashpots, nwalls: usize, h: Real, w:
 /// `lo..hi` is in bounds of every array, and no other thread touches those indices of
 /// `vx`, `vy`, `w` meanwhile.
 #[inline(always)]
-pub(crate) unsafe fn kick_range<'a, const L: bool>(lo: usize, hi: usize, h: Real, (im, ii): (&[Real], &[Real]), (fx, fy, tq): (&[Real], &[Real], &[Real]), (vx, vy, w): (Ptr<Real>, Ptr<Real>, Ptr<Real>), part: &mut Partial) -> (&'a mut [Real], &'a mut [Real], &'a mut [Real]) {
+pub(crate) unsafe fn kick_range<'a, const L: bool>(
+    lo: usize,
+    hi: usize,
+    h: Real,
+    (im, ii): (&[Real], &[Real]),
+    (fx, fy, tq): (&[Real], &[Real], &[Real]),
+    (vx, vy, w): (Ptr<Real>, Ptr<Real>, Ptr<Real>),
+    part: &mut Partial,
+) -> (&'a mut [Real], &'a mut [Real], &'a mut [Real]) {
     let n = hi - lo;
     let (im, ii) = (&im[..n], &ii[..n]);
     let (fx, fy, tq) = (&fx[..n], &fy[..n], &tq[..n]);
     // SAFETY: caller's contract
-    let (vx, vy, w) = unsafe { (std::slice::from_raw_parts_mut(vx.0.add(lo), n), std::slice::from_raw_parts_mut(vy.0.add(lo), n), std::slice::from_raw_parts_mut(w.0.add(lo), n)) };
+    let (vx, vy, w) = unsafe {
+        (
+            std::slice::from_raw_parts_mut(vx.0.add(lo), n),
+            std::slice::from_raw_parts_mut(vy.0.add(lo), n),
+            std::slice::from_raw_parts_mut(w.0.add(lo), n),
+        )
+    };
     if L {
         for a in 0..n {
             if im[a] == 0.0 {
@@ -277,11 +350,23 @@ pub(crate) unsafe fn kick_range<'a, const L: bool>(lo: usize, hi: usize, h: Real
 /// # Safety
 /// As [`kick_range`] for `x`, `y`, `th`.
 #[inline(always)]
-pub(crate) unsafe fn drift_range<const THETA: bool>(lo: usize, dt: Real, (vx, vy, w): (&mut [Real], &mut [Real], &mut [Real]), (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>), x0y0: Option<(&[Real], &[Real])>, lim: Real) -> bool {
+pub(crate) unsafe fn drift_range<const THETA: bool>(
+    lo: usize,
+    dt: Real,
+    (vx, vy, w): (&mut [Real], &mut [Real], &mut [Real]),
+    (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>),
+    x0y0: Option<(&[Real], &[Real])>,
+    lim: Real,
+) -> bool {
     let n = vx.len();
     let vy = &vy[..n];
     // SAFETY: caller's contract
-    let (x, y) = unsafe { (std::slice::from_raw_parts_mut(x.0.add(lo), n), std::slice::from_raw_parts_mut(y.0.add(lo), n)) };
+    let (x, y) = unsafe {
+        (
+            std::slice::from_raw_parts_mut(x.0.add(lo), n),
+            std::slice::from_raw_parts_mut(y.0.add(lo), n),
+        )
+    };
     for a in 0..n {
         x[a] += dt * vx[a];
         y[a] += dt * vy[a];
@@ -311,7 +396,16 @@ pub(crate) unsafe fn drift_range<const THETA: bool>(lo: usize, dt: Real, (vx, vy
 /// Backward-Euler dashpot impulse between grain `i` and grain `j` (or a wall, spin 0,
 /// infinite inertia) over `h`, clipped by the cap of `d`.
 #[inline(always)]
-fn pair_impulse<const L: bool>(d: &RollDashpot, h: Real, w: &mut [Real], inv_i: &[Real], inertia: &[Real], i: usize, j: Option<usize>, led: &mut Ledger) {
+fn pair_impulse<const L: bool>(
+    d: &RollDashpot,
+    h: Real,
+    w: &mut [Real],
+    inv_i: &[Real],
+    inertia: &[Real],
+    i: usize,
+    j: Option<usize>,
+    led: &mut Ledger,
+) {
     let (wj, iij) = match j {
         Some(j) => (w[j], inv_i[j]),
         None => (0.0, 0.0),

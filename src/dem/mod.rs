@@ -13,26 +13,26 @@
 //! `watchdog`; drivers: `prep` (deposition, hex, settle), `column` (collapse +
 //! work-precision), `shear` (C1), `compress` (C2), `pile` (P5), `bench`.
 
-pub mod params;
-pub mod state;
+pub mod bench;
+pub mod column;
+pub mod compress;
 pub mod contact_law;
-pub mod neighbors;
-pub mod walls;
 pub mod energy;
 pub mod error;
-pub mod timers;
-pub mod preflight;
-pub mod world;
-pub(crate) mod passes;
 pub mod integrate;
-pub mod watchdog;
-pub mod prep;
-pub mod column;
-pub mod shear;
-pub mod compress;
+pub mod neighbors;
+pub mod params;
+pub(crate) mod passes;
 pub mod pile;
-pub mod bench;
+pub mod preflight;
+pub mod prep;
+pub mod shear;
+pub mod state;
 pub mod team;
+pub mod timers;
+pub mod walls;
+pub mod watchdog;
+pub mod world;
 
 pub use contact_law::{Law, LawCoeffs, PairIn, PairOut};
 pub use energy::{Balance, Energies, Ledger};

@@ -57,13 +57,19 @@ pub struct NeighborList {
 
 impl NeighborList {
     /// Number of listed pairs.
-    pub fn len(&self) -> usize { self.pi.len() }
+    pub fn len(&self) -> usize {
+        self.pi.len()
+    }
     /// No pairs listed.
-    pub fn is_empty(&self) -> bool { self.pi.is_empty() }
+    pub fn is_empty(&self) -> bool {
+        self.pi.is_empty()
+    }
 
     /// Whether some grain moved more than skin/2 since the last build.
     pub fn needs_rebuild(&self, s: &State) -> bool {
-        if self.x0.len() != s.len() { return true; }
+        if self.x0.len() != s.len() {
+            return true;
+        }
         let lim = 0.25 * self.skin * self.skin;
         (0..s.len()).any(|i| {
             let dx = s.x[i] - self.x0[i];
@@ -74,14 +80,22 @@ impl NeighborList {
 
     /// Rebuild the list (wrapping x into [0, lx) when periodic) and carry history over.
     /// `cn_of(i, j)` gives the pair dashpot.
-    pub fn build(&mut self, s: &mut State, skin: Real, periodic_lx: Option<Real>, cn_of: impl Fn(usize, usize) -> Real) {
+    pub fn build(
+        &mut self,
+        s: &mut State,
+        skin: Real,
+        periodic_lx: Option<Real>,
+        cn_of: impl Fn(usize, usize) -> Real,
+    ) {
         let n = s.len();
         self.skin = skin;
         self.builds += 1;
         if let Some(lx) = periodic_lx {
             for x in s.x.iter_mut() {
                 *x = x.rem_euclid(lx);
-                if *x >= lx { *x -= lx; }
+                if *x >= lx {
+                    *x -= lx;
+                }
             }
         }
         // keep old pairs for the history merge
@@ -108,7 +122,8 @@ impl NeighborList {
         }
         let r_max = s.r.iter().cloned().fold(0.0, Real::max);
         let mut cell = 2.0 * r_max + skin;
-        let (mut x_lo, mut y_lo, mut x_hi, mut y_hi) = (Real::INFINITY, Real::INFINITY, Real::NEG_INFINITY, Real::NEG_INFINITY);
+        let (mut x_lo, mut y_lo, mut x_hi, mut y_hi) =
+            (Real::INFINITY, Real::INFINITY, Real::NEG_INFINITY, Real::NEG_INFINITY);
         for i in 0..n {
             x_lo = x_lo.min(s.x[i]);
             x_hi = x_hi.max(s.x[i]);
@@ -119,15 +134,22 @@ impl NeighborList {
         let cap = 4.0 * n as Real + 64.0;
         if periodic_lx.is_none() {
             let area = ((x_hi - x_lo) / cell + 1.0) * ((y_hi - y_lo) / cell + 1.0);
-            if area > cap { cell *= (area / cap).sqrt(); }
+            if area > cap {
+                cell *= (area / cap).sqrt();
+            }
         } else {
             let rows = (y_hi - y_lo) / cell + 1.0;
-            if rows > cap { cell *= rows / cap; }
+            if rows > cap {
+                cell *= rows / cap;
+            }
         }
         let (nx, x_lo, cw) = match periodic_lx {
             Some(lx) => {
                 let nx = ((lx / cell).floor() as usize).max(1);
-                assert!(nx >= 3, "periodic cell too narrow: period {lx} m < 3 neighbour cells of {cell} m");
+                assert!(
+                    nx >= 3,
+                    "periodic cell too narrow: period {lx} m < 3 neighbour cells of {cell} m"
+                );
                 (nx, 0.0, lx / nx as Real)
             }
             None => ((((x_hi - x_lo) / cell).floor() as usize + 1).min(1 << 14), x_lo, cell),
@@ -166,23 +188,33 @@ impl NeighborList {
             row.clear();
             for dy in 0..3usize {
                 let Some(ccy) = (cy + dy).checked_sub(1) else { continue };
-                if ccy >= ny { continue; }
+                if ccy >= ny {
+                    continue;
+                }
                 for dxo in 0..3isize {
                     let raw = cx as isize + dxo - 1;
                     let (ccx, sh) = match periodic_lx {
                         Some(_) => {
-                            if raw < 0 { ((raw + nx as isize) as usize, -1.0) }
-                            else if raw >= nx as isize { ((raw - nx as isize) as usize, 1.0) }
-                            else { (raw as usize, 0.0) }
+                            if raw < 0 {
+                                ((raw + nx as isize) as usize, -1.0)
+                            } else if raw >= nx as isize {
+                                ((raw - nx as isize) as usize, 1.0)
+                            } else {
+                                (raw as usize, 0.0)
+                            }
                         }
                         None => {
-                            if raw < 0 || raw >= nx as isize { continue; }
+                            if raw < 0 || raw >= nx as isize {
+                                continue;
+                            }
                             (raw as usize, 0.0)
                         }
                     };
                     let c = ccy * nx + ccx;
                     for &j in &self.cell_items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize] {
-                        if (j as usize) <= i { continue; }
+                        if (j as usize) <= i {
+                            continue;
+                        }
                         let lx = periodic_lx.unwrap_or(0.0);
                         let dx = s.x[j as usize] + sh * lx - s.x[i];
                         let dy = s.y[j as usize] - s.y[i];
@@ -208,8 +240,14 @@ impl NeighborList {
         self.hist.resize(self.pi.len(), ContactState::default());
         let (mut a, mut b) = (0usize, 0usize);
         while a < self.old_pi.len() && b < self.pi.len() {
-            let ka = ContactKey { i: self.old_pi[a], j: self.old_pj[a] };
-            let kb = ContactKey { i: self.pi[b], j: self.pj[b] };
+            let ka = ContactKey {
+                i: self.old_pi[a],
+                j: self.old_pj[a],
+            };
+            let kb = ContactKey {
+                i: self.pi[b],
+                j: self.pj[b],
+            };
             match ka.cmp(&kb) {
                 std::cmp::Ordering::Less => a += 1,
                 std::cmp::Ordering::Greater => b += 1,

@@ -44,12 +44,18 @@ pub fn damping_ratio(e: Real, model: DampingModel) -> Real {
     match model {
         DampingModel::Eq45 => gamma_from_restitution(e),
         DampingModel::NoAttractionExact => {
-            if e >= 1.0 { return 0.0; }
+            if e >= 1.0 {
+                return 0.0;
+            }
             // ε(ζ) decreases monotonically on (0, 1/√2): bisection
             let (mut lo, mut hi) = (0.0, 0.7071);
             for _ in 0..80 {
                 let mid = 0.5 * (lo + hi);
-                if restitution_no_attraction(mid) > e { lo = mid; } else { hi = mid; }
+                if restitution_no_attraction(mid) > e {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
             }
             0.5 * (lo + hi)
         }
@@ -84,25 +90,49 @@ pub struct ContactParams {
 impl ContactParams {
     /// Table 4.2 grain–grain values.
     pub fn grain() -> Self {
-        Self { kn: 1.6e8, kt: 1.6e8, friction: 0.53, restitution: 0.75, tangential_damping_ratio: 0.0, damping_model: DampingModel::NoAttractionExact }
+        Self {
+            kn: 1.6e8,
+            kt: 1.6e8,
+            friction: 0.53,
+            restitution: 0.75,
+            tangential_damping_ratio: 0.0,
+            damping_model: DampingModel::NoAttractionExact,
+        }
     }
     /// Table 4.2 grain–wall values.
     pub fn wall() -> Self {
-        Self { kn: 4e8, kt: 4e8, friction: 0.466, restitution: 0.75, tangential_damping_ratio: 0.0, damping_model: DampingModel::NoAttractionExact }
+        Self {
+            kn: 4e8,
+            kt: 4e8,
+            friction: 0.466,
+            restitution: 0.75,
+            tangential_damping_ratio: 0.0,
+            damping_model: DampingModel::NoAttractionExact,
+        }
     }
     /// Damping ratio ζ of this family.
-    pub fn damping_ratio(&self) -> Real { damping_ratio(self.restitution, self.damping_model) }
+    pub fn damping_ratio(&self) -> Real {
+        damping_ratio(self.restitution, self.damping_model)
+    }
     fn check(&self, c: &mut Checker) {
         c.plausible("kn", self.kn, 1.0, 1e12, "contact stiffness [N/m per metre]");
         c.plausible("kt", self.kt, 1.0, 1e12, "contact stiffness [N/m per metre]");
         c.plausible("friction", self.friction, 0.0, 10.0, "Coulomb coefficient");
         c.in_open_closed("restitution", self.restitution, 0.0, 1.0);
-        c.plausible("tangential_damping_ratio", self.tangential_damping_ratio, 0.0, 10.0, "fraction of C_n");
+        c.plausible(
+            "tangential_damping_ratio",
+            self.tangential_damping_ratio,
+            0.0,
+            10.0,
+            "fraction of C_n",
+        );
     }
 }
 
 impl Default for ContactParams {
-    fn default() -> Self { Self::grain() }
+    fn default() -> Self {
+        Self::grain()
+    }
 }
 
 /// How the rolling dashpot is integrated (figures.md §c.2: I/c_r ≈ 1e-9 s).
@@ -159,7 +189,16 @@ pub struct RollingParams {
 }
 
 impl Default for RollingParams {
-    fn default() -> Self { Self { enabled: true, kr: 1.0e3, cr: 0.1, mu_r: 0.3, damping: RollingDamping::Implicit, model: RollingModel::Epsd } }
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            kr: 1.0e3,
+            cr: 0.1,
+            mu_r: 0.3,
+            damping: RollingDamping::Implicit,
+            model: RollingModel::Epsd,
+        }
+    }
 }
 
 /// Watchdog thresholds (checked every `every` steps).
@@ -177,7 +216,13 @@ pub struct WatchdogParams {
 }
 
 impl Default for WatchdogParams {
-    fn default() -> Self { Self { every: 200, max_overlap_fraction: 0.05, energy_rise_fraction: 0.05 } }
+    fn default() -> Self {
+        Self {
+            every: 200,
+            max_overlap_fraction: 0.05,
+            energy_rise_fraction: 0.05,
+        }
+    }
 }
 
 /// All DEM solver parameters of one scene.
@@ -254,11 +299,28 @@ impl DemParams {
         if self.rolling.enabled {
             c.plausible("rolling.kr", self.rolling.kr, 1e-15, 1e9, "rolling stiffness [N·m/rad]");
             c.plausible("rolling.cr", self.rolling.cr, 0.0, 1e6, "rolling dashpot [N·m·s/rad]");
-            c.plausible("rolling.mu_r", self.rolling.mu_r, 0.0, 10.0, "rolling friction coefficient");
+            c.plausible(
+                "rolling.mu_r",
+                self.rolling.mu_r,
+                0.0,
+                10.0,
+                "rolling friction coefficient",
+            );
         }
         c.in_open("skin_fraction", self.skin_fraction, 0.0, 2.0);
-        c.in_open("watchdog.max_overlap_fraction", self.watchdog.max_overlap_fraction, 0.0, 1.0);
-        c.plausible("watchdog.energy_rise_fraction", self.watchdog.energy_rise_fraction, 0.0, 1e3, "fraction of E_0");
+        c.in_open(
+            "watchdog.max_overlap_fraction",
+            self.watchdog.max_overlap_fraction,
+            0.0,
+            1.0,
+        );
+        c.plausible(
+            "watchdog.energy_rise_fraction",
+            self.watchdog.energy_rise_fraction,
+            0.0,
+            1e3,
+            "fraction of E_0",
+        );
         c.issues
     }
 }
@@ -271,7 +333,10 @@ mod tests {
     fn defaults_are_table_4_2_and_valid() {
         let p = DemParams::default();
         assert!(p.validate().is_empty());
-        assert_eq!((p.grain.kn, p.wall.kn, p.grain.friction, p.wall.friction), (1.6e8, 4e8, 0.53, 0.466));
+        assert_eq!(
+            (p.grain.kn, p.wall.kn, p.grain.friction, p.wall.friction),
+            (1.6e8, 4e8, 0.53, 0.466)
+        );
         assert_eq!((p.rolling.kr, p.rolling.cr), (1.0e3, 0.1));
         // eq 4.5: γ = 0.09119 for ε = 0.75 (figures.md §c)
         assert!((gamma_from_restitution(0.75) - 0.09119).abs() < 1e-5);

@@ -27,7 +27,9 @@ pub(crate) struct Rd<T> {
     n: usize,
 }
 impl<T> Clone for Rd<T> {
-    fn clone(&self) -> Self { *self }
+    fn clone(&self) -> Self {
+        *self
+    }
 }
 impl<T> Copy for Rd<T> {}
 // SAFETY: a view for reading; the jobs that hold one order their reads after the writes
@@ -37,12 +39,24 @@ unsafe impl<T> Sync for Rd<T> {}
 
 impl<T> Rd<T> {
     /// Number of elements.
-    pub(crate) fn len(&self) -> usize { self.n }
+    pub(crate) fn len(&self) -> usize {
+        self.n
+    }
     /// A view of an array that nothing writes while the view is used.
-    pub(crate) fn new(v: &[T]) -> Self { Rd { p: v.as_ptr(), n: v.len() } }
+    pub(crate) fn new(v: &[T]) -> Self {
+        Rd {
+            p: v.as_ptr(),
+            n: v.len(),
+        }
+    }
     /// A view of an array that a job of the same phase writes (other elements, or the same
     /// ones before or after, in an order the phase enforces).
-    pub(crate) fn of(v: &mut Vec<T>) -> Self { Rd { p: v.as_mut_ptr(), n: v.len() } }
+    pub(crate) fn of(v: &mut Vec<T>) -> Self {
+        Rd {
+            p: v.as_mut_ptr(),
+            n: v.len(),
+        }
+    }
     /// `len` elements from `lo`.
     ///
     /// # Safety
@@ -187,7 +201,11 @@ impl PairFilter {
         debug_assert!(lo % 64 == 0 && hi - lo <= PAIR_CHUNK);
         let mut n_todo = 0usize;
         for base in (lo..hi).step_by(64) {
-            let valid = if hi - base >= 64 { !0u64 } else { (1u64 << (hi - base)) - 1 };
+            let valid = if hi - base >= 64 {
+                !0u64
+            } else {
+                (1u64 << (hi - base)) - 1
+            };
             // SAFETY: caller's contract (this chunk's words)
             let live = unsafe { self.live.get(base / 64) } & valid;
             let mut work = live;
@@ -295,7 +313,8 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         let mut part = Partial::default();
         let (pi, pj, shift, cn, rr, lx) = (self.pi, self.pj, self.shift, self.cn, self.rr, self.lx);
         let (x, y, vx, vy, w, r) = (self.x, self.y, self.vx, self.vy, self.w, self.r);
-        let (hist, pout, ritems, live, coeffs, dt) = (self.hist, self.pout, self.ritems, self.live, &self.coeffs, self.dt);
+        let (hist, pout, ritems, live, coeffs, dt) =
+            (self.hist, self.pout, self.ritems, self.live, &self.coeffs, self.dt);
         // Pass 1 (`PairFilter`): the pairs with work to do, in pair order.
         // SAFETY: caller's contract; the offsets are the filter's, in bounds
         // unfiltered, the chunk filters into a buffer on the stack (in L1 for the pass; not
@@ -319,7 +338,9 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         // the chunk's live bits after this evaluation: its touching pairs (a pair without
         // work stays separated, with no history)
         let mut now_live = [0u64; PAIR_CHUNK / 64];
-        let mut scratch = PAIR_SCRATCH.take().unwrap_or_else(|| Box::new((PairBatch::default(), PairBatchOut::default())));
+        let mut scratch = PAIR_SCRATCH
+            .take()
+            .unwrap_or_else(|| Box::new((PairBatch::default(), PairBatchOut::default())));
         let (b, bo) = &mut *scratch;
         for batch in todo.chunks(BATCH) {
             let nb = batch.len();
@@ -375,12 +396,31 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
                         new_max_overlap(&mut part, overlap, dmin, i, j);
                     }
                     now_live[o as usize / 64] |= 1 << (o % 64);
-                    hist.set(k, ContactState { tangential: b.h[0][l], rolling: b.h[1][l], ft: b.h[2][l], mr: b.h[3][l] });
+                    hist.set(
+                        k,
+                        ContactState {
+                            tangential: b.h[0][l],
+                            rolling: b.h[1][l],
+                            ft: b.h[2][l],
+                            mr: b.h[3][l],
+                        },
+                    );
                     pout.set(k, [bo.fx[l], bo.fy[l], bo.t_i[l], bo.t_j[l]]);
                     if IMP {
                         // written always, kept (counted) only with a dashpot: no branch
-                        let d = RollDashpot { c: bo.roll[0][l], m_spring: bo.roll[1][l], m_max: bo.roll[2][l] };
-                        ritems.set(lo + n_roll, RollItem { i: i as u32, j: j as u32, d });
+                        let d = RollDashpot {
+                            c: bo.roll[0][l],
+                            m_spring: bo.roll[1][l],
+                            m_max: bo.roll[2][l],
+                        };
+                        ritems.set(
+                            lo + n_roll,
+                            RollItem {
+                                i: i as u32,
+                                j: j as u32,
+                                d,
+                            },
+                        );
                         n_roll += usize::from(d.c > 0.0);
                     }
                     if L {
@@ -513,7 +553,8 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
     unsafe fn chunk_body(&self, lo: usize, hi: usize) -> GrainChunk {
         let (n, dt, step_dt, on) = (self.n, self.dt, self.step_dt, self.on);
         let h = 0.5 * step_dt;
-        let (istart, jstart, jlist, pout, m, r, g) = (self.istart, self.jstart, self.jlist, self.pout, self.m, self.r, self.g);
+        let (istart, jstart, jlist, pout, m, r, g) =
+            (self.istart, self.jstart, self.jlist, self.pout, self.m, self.r, self.g);
         let (inv_m, inv_i, wcn) = (self.inv_m, self.inv_i, self.wcn);
         let (xp, yp, th, vx, vy, w) = (self.x, self.y, self.th, self.vx, self.vy, self.w);
         let (fx, fy, tq, hist, live, witems) = (self.fx, self.fy, self.tq, self.hist, self.live, self.witems);
@@ -526,7 +567,10 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
             // see `World::integrate_first_half`)
             // SAFETY: this chunk's grains only
             unsafe {
-                let (th, w) = (std::slice::from_raw_parts_mut(th.0.add(lo), hi - lo), std::slice::from_raw_parts(w.0.add(lo), hi - lo));
+                let (th, w) = (
+                    std::slice::from_raw_parts_mut(th.0.add(lo), hi - lo),
+                    std::slice::from_raw_parts(w.0.add(lo), hi - lo),
+                );
                 for a in 0..hi - lo {
                     th[a] += step_dt * w[a];
                 }
@@ -565,7 +609,9 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
             debug_assert!(lo % GRAIN_CHUNK == 0 && self.near_start.len() == walls.len() * (self.near_chunks + 1));
             let c = lo / GRAIN_CHUNK;
             for (wi, wall) in walls.iter().enumerate() {
-                if !wall.active { continue; }
+                if !wall.active {
+                    continue;
+                }
                 let at = wi * (self.near_chunks + 1) + c;
                 let (s, e) = (self.near_start[at] as usize, self.near_start[at + 1] as usize);
                 // SAFETY: not written during the phase
@@ -578,7 +624,9 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                     let overlap = r[a] - wall.distance(p);
                     if overlap <= 0.0 {
                         unsafe {
-                            if live.get(hk) == 0 { continue; }
+                            if live.get(hk) == 0 {
+                                continue;
+                            }
                             live.set(hk, 0);
                             let h = hist.get(hk);
                             if h != ContactState::default() {
@@ -617,7 +665,14 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                         fy.set(a, fy.get(a) + o.f.y);
                         tq.set(a, tq.get(a) + o.t_i);
                         if IMP && o.roll.c > 0.0 {
-                            witems.set(wi * n + lo + part.n_roll[wi] as usize, RollItem { i: a as u32, j: u32::MAX, d: o.roll });
+                            witems.set(
+                                wi * n + lo + part.n_roll[wi] as usize,
+                                RollItem {
+                                    i: a as u32,
+                                    j: u32::MAX,
+                                    d: o.roll,
+                                },
+                            );
                             part.n_roll[wi] += 1;
                         }
                         part.wall_force[wi] -= o.f;
@@ -639,7 +694,8 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
             unsafe {
                 let f = |p: Ptr<Real>| std::slice::from_raw_parts(p.0.add(lo), hi - lo);
                 let (im, ii) = (inv_m.slice(lo, hi - lo), inv_i.slice(lo, hi - lo));
-                let (vxs, vys, _) = kick_range::<L>(lo, hi, h, (im, ii), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
+                let (vxs, vys, _) =
+                    kick_range::<L>(lo, hi, h, (im, ii), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
                 if self.next {
                     // the next step's translational half kick (`kick_range`'s arithmetic;
                     // no prescribed grain, nothing to book) and drift
@@ -649,19 +705,36 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                         vys[a] += h * im[a] * fy[a];
                     }
                     let x0y0 = self.x0.as_ref().map(|(x0, y0)| (x0.slice(0, n), y0.slice(0, n)));
-                    kpart.moved = drift_range::<false>(lo, step_dt, (vxs, vys, &mut []), (xp, yp, Ptr(std::ptr::null_mut())), x0y0, self.lim);
+                    kpart.moved = drift_range::<false>(
+                        lo,
+                        step_dt,
+                        (vxs, vys, &mut []),
+                        (xp, yp, Ptr(std::ptr::null_mut())),
+                        x0y0,
+                        self.lim,
+                    );
                 }
             }
         }
         let t3 = Clock::now(on);
-        GrainChunk { walls: part, kick: kpart, secs: [t0.to(t1), t1.to(t2), t2.to(t3)] }
+        GrainChunk {
+            walls: part,
+            kick: kpart,
+            secs: [t0.to(t1), t1.to(t2), t2.to(t3)],
+        }
     }
 }
 
 /// The grain chunk range `[first, last)` of pair chunks holding a pair of each grain chunk
 /// (as i or as j): what its gather must wait for in a joined step. Empty for a chunk
 /// without pairs.
-pub(crate) fn grain_chunk_deps(istart: &[u32], jstart: &[u32], jlist: &[u32], n: usize, grain_chunk: usize) -> Vec<(u32, u32)> {
+pub(crate) fn grain_chunk_deps(
+    istart: &[u32],
+    jstart: &[u32],
+    jlist: &[u32],
+    n: usize,
+    grain_chunk: usize,
+) -> Vec<(u32, u32)> {
     (0..n.div_ceil(grain_chunk))
         .map(|c| {
             let (lo, hi) = (c * grain_chunk, ((c + 1) * grain_chunk).min(n));
@@ -674,7 +747,11 @@ pub(crate) fn grain_chunk_deps(istart: &[u32], jstart: &[u32], jlist: &[u32], n:
                 a = a.min(k);
                 b = b.max(k);
             }
-            if a == u32::MAX { (0, 0) } else { (a / PAIR_CHUNK as u32, b / PAIR_CHUNK as u32 + 1) }
+            if a == u32::MAX {
+                (0, 0)
+            } else {
+                (a / PAIR_CHUNK as u32, b / PAIR_CHUNK as u32 + 1)
+            }
         })
         .collect()
 }
@@ -697,7 +774,10 @@ mod tests {
         let s = hex_lattice(0.04, 0.03, d, p.density);
         let mut w = World::new(p, s, box_walls(0.04), None).unwrap();
         let np = w.nl.len();
-        assert!(np > 3 * PAIR_CHUNK && np % PAIR_CHUNK != 0 && np % 64 != 0, "{np} pairs");
+        assert!(
+            np > 3 * PAIR_CHUNK && np % PAIR_CHUNK != 0 && np % 64 != 0,
+            "{np} pairs"
+        );
         let mut rng = SplitMix64(3);
         for trial in 0..4 {
             for a in 0..w.state.len() {
@@ -705,7 +785,8 @@ mod tests {
                 w.state.y[a] += 0.02 * d * (rng.next_f64() - 0.5);
             }
             for (q, v) in w.plive.iter_mut().enumerate() {
-                let bits = (rng.next_f64() * u32::MAX as f64) as u64 | ((rng.next_f64() * u32::MAX as f64) as u64) << 32;
+                let bits =
+                    (rng.next_f64() * u32::MAX as f64) as u64 | ((rng.next_f64() * u32::MAX as f64) as u64) << 32;
                 let tail = np - (q * 64).min(np);
                 *v = if tail >= 64 { bits } else { bits & ((1u64 << tail) - 1) };
             }

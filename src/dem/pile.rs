@@ -5,7 +5,9 @@
 //! fastest grain slower than `settle_speed` √(g d̄), checked every 1 ms of simulated time).
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, grain_sample, kinetic, sample_run};
+use crate::analysis::pile::{
+    Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, grain_sample, kinetic, sample_run,
+};
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
 use crate::dem::prep::{DepositionParams, ballistic_deposition, box_walls, quench};
@@ -36,7 +38,14 @@ pub struct PileParams {
 
 impl Default for PileParams {
     fn default() -> Self {
-        Self { deposition: DepositionParams::default(), shift_to: 20.0, settle_ratio: 1e-6, settle_speed: 1e-3, min_time: 0.3, max_time: 5.0 }
+        Self {
+            deposition: DepositionParams::default(),
+            shift_to: 20.0,
+            settle_ratio: 1e-6,
+            settle_speed: 1e-3,
+            min_time: 0.3,
+            max_time: 5.0,
+        }
     }
 }
 
@@ -60,7 +69,9 @@ pub struct Pile {
 }
 
 fn v_max(s: &State) -> Real {
-    (0..s.len()).map(|i| (s.vx[i] * s.vx[i] + s.vy[i] * s.vy[i]).sqrt()).fold(0.0, Real::max)
+    (0..s.len())
+        .map(|i| (s.vx[i] * s.vx[i] + s.vy[i] * s.vy[i]).sqrt())
+        .fold(0.0, Real::max)
 }
 
 /// Pour `radii` into the box, shift the right wall, relax to rest.
@@ -86,8 +97,24 @@ pub fn prepare_pile(radii: &[Real], params: &DemParams, pp: &PileParams) -> Resu
     let settled = r < pp.settle_ratio && vm < v_rest;
     let relax_time = w.t;
     let s = w.state;
-    let f = front(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, Link::Contact { gap: 0.01 * dbar });
-    Ok(Pile { l0: f.length, h0: f.height, settled, relax_time, ke_over_ep: r, v_max: vm, state: s })
+    let f = front(
+        &Body {
+            x: &s.x,
+            y: &s.y,
+            half: &s.r,
+            mass: &s.m,
+        },
+        Link::Contact { gap: 0.01 * dbar },
+    );
+    Ok(Pile {
+        l0: f.length,
+        h0: f.height,
+        settled,
+        relax_time,
+        ke_over_ep: r,
+        v_max: vm,
+        state: s,
+    })
 }
 
 /// A finished pile run (any method).
@@ -113,20 +140,43 @@ pub struct PileRun {
 
 /// A frame of grains (DEM or CD: both on `dem::State`).
 pub fn grain_frame(t: Real, s: &State) -> Frame {
-    Frame { t, x: s.x.clone(), y: s.y.clone(), half: s.r.clone(), vx: s.vx.clone(), vy: s.vy.clone(), sigma_yy: Vec::new() }
+    Frame {
+        t,
+        x: s.x.clone(),
+        y: s.y.clone(),
+        half: s.r.clone(),
+        vx: s.vx.clone(),
+        vy: s.vy.clone(),
+        sigma_yy: Vec::new(),
+    }
 }
 
 /// Walls of a pile run: the base and the left wall only (the right wall is gone).
-pub fn pile_walls() -> Vec<Wall> { vec![Wall::floor(0.0), Wall::left(0.0)] }
+pub fn pile_walls() -> Vec<Wall> {
+    vec![Wall::floor(0.0), Wall::left(0.0)]
+}
 
 /// Excite a pile at rest with `profile` carrying `e0` [J/m] and run it until `stop`.
-pub fn run_pile(pile: &State, params: &DemParams, profile: Profile, e0: Real, stop: &StopRule) -> Result<PileRun, DemError> {
+pub fn run_pile(
+    pile: &State,
+    params: &DemParams,
+    profile: Profile,
+    e0: Real,
+    stop: &StopRule,
+) -> Result<PileRun, DemError> {
     run_pile_frames(pile, params, profile, e0, stop, &FrameTimes::default())
 }
 
 /// [`run_pile`] taking frames at `frames` (times [s], at sample instants); the run does not
 /// stop before the last frame.
-pub fn run_pile_frames(pile: &State, params: &DemParams, profile: Profile, e0: Real, stop: &StopRule, frames: &FrameTimes) -> Result<PileRun, DemError> {
+pub fn run_pile_frames(
+    pile: &State,
+    params: &DemParams,
+    profile: Profile,
+    e0: Real,
+    stop: &StopRule,
+    frames: &FrameTimes,
+) -> Result<PileRun, DemError> {
     let mut s = pile.clone();
     s.stop();
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
@@ -140,11 +190,34 @@ pub fn run_pile_frames(pile: &State, params: &DemParams, profile: Profile, e0: R
     let mut w = World::new(p, s, pile_walls(), None)?;
     let g = params.gravity;
     let dts = stop.dt_sample(g);
-    let run = sample_run(&mut w, stop, frames, e0, g, |w| w.t, |w| grain_sample(w.t, &w.state, link), |w| grain_frame(w.t, &w.state), |w| w.run_until(w.t + dts))?;
+    let run = sample_run(
+        &mut w,
+        stop,
+        frames,
+        e0,
+        g,
+        |w| w.t,
+        |w| grain_sample(w.t, &w.state, link),
+        |w| grain_frame(w.t, &w.state),
+        |w| w.run_until(w.t + dts),
+    )?;
     let l0 = run.samples[0].l;
-    let Sampled { samples, frames: shots, stopped } = run;
+    let Sampled {
+        samples,
+        frames: shots,
+        stopped,
+    } = run;
     let st = &w.state;
-    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: w.steps, final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()), frames: shots })
+    Ok(PileRun {
+        samples,
+        l0,
+        e0,
+        e0_check,
+        stopped,
+        steps: w.steps,
+        final_bodies: (st.x.clone(), st.y.clone(), st.r.clone()),
+        frames: shots,
+    })
 }
 
 /// Settle the grains of a prepared pile again with other walls or parameters (kinetic

@@ -37,7 +37,9 @@ impl SplitMix64 {
 /// 1/d_max)). For tests and benches only; the pipeline passes the PSD stage's radii.
 pub fn diameters_uniform_by_area(n: usize, d_min: Real, d_max: Real, seed: u64) -> Vec<Real> {
     let mut rng = SplitMix64(seed);
-    (0..n).map(|_| 1.0 / (1.0 / d_min - rng.next_f64() * (1.0 / d_min - 1.0 / d_max))).collect()
+    (0..n)
+        .map(|_| 1.0 / (1.0 / d_min - rng.next_f64() * (1.0 / d_min - 1.0 / d_max)))
+        .collect()
 }
 
 /// Outcome of a settling run.
@@ -61,7 +63,11 @@ pub fn settle(world: &mut World, ratio: Real, min_time: Real, max_time: Real) ->
         let e = world.energies();
         let r = (e.ek() + e.erot) / e.ep.max(1e-300);
         if r < ratio || world.t - t0 >= max_time {
-            return Ok(SettleReport { time: world.t - t0, ke_over_ep: r, converged: r < ratio });
+            return Ok(SettleReport {
+                time: world.t - t0,
+                ke_over_ep: r,
+                converged: r < ratio,
+            });
         }
         world.run_until(world.t + check)?;
     }
@@ -75,7 +81,10 @@ pub fn quench(world: &mut World, ratio: Real, max_steps: u64) -> Result<SettleRe
     let t0 = world.t;
     let ke = |w: &World| -> Real {
         let s = &w.state;
-        (0..s.len()).map(|i| s.m[i] * (s.vx[i] * s.vx[i] + s.vy[i] * s.vy[i]) + s.inertia[i] * s.w[i] * s.w[i]).sum::<Real>() * 0.5
+        (0..s.len())
+            .map(|i| s.m[i] * (s.vx[i] * s.vx[i] + s.vy[i] * s.vy[i]) + s.inertia[i] * s.w[i] * s.w[i])
+            .sum::<Real>()
+            * 0.5
     };
     let mut prev = ke(world);
     let mut r = Real::INFINITY;
@@ -91,10 +100,16 @@ pub fn quench(world: &mut World, ratio: Real, max_steps: u64) -> Result<SettleRe
         if k % 100 == 99 {
             let ep = world.energies().ep.max(1e-300);
             r = e / ep;
-            if r < ratio && k > 1000 { break; }
+            if r < ratio && k > 1000 {
+                break;
+            }
         }
     }
-    Ok(SettleReport { time: world.t - t0, ke_over_ep: r, converged: r < ratio })
+    Ok(SettleReport {
+        time: world.t - t0,
+        ke_over_ep: r,
+        converged: r < ratio,
+    })
 }
 
 /// Ballistic deposition settings (SC-COL proposal: layers of ~5 d̄ rained from 5 d̄ above
@@ -125,7 +140,17 @@ pub struct DepositionParams {
 
 impl Default for DepositionParams {
     fn default() -> Self {
-        Self { width: 0.0624, drop_height: 5.0, rows_per_layer: 5, spacing: 1.05, prep_friction: None, softening: 0.01, settle_ratio: 1e-6, max_settle_time: 0.3, seed: 1 }
+        Self {
+            width: 0.0624,
+            drop_height: 5.0,
+            rows_per_layer: 5,
+            spacing: 1.05,
+            prep_friction: None,
+            softening: 0.01,
+            settle_ratio: 1e-6,
+            max_settle_time: 0.3,
+            seed: 1,
+        }
     }
 }
 
@@ -162,10 +187,14 @@ impl Column {
 }
 
 /// Packing fraction of the grains whose centres lie in the rectangle, Σπr²/area.
-pub fn packing_fraction(s: &State, x0: Real, x1: Real, y0: Real, y1: Real) -> Real { packing_fraction_window(s, x0, x1, y0, y1) }
+pub fn packing_fraction(s: &State, x0: Real, x1: Real, y0: Real, y1: Real) -> Real {
+    packing_fraction_window(s, x0, x1, y0, y1)
+}
 
 fn packing_fraction_window(s: &State, x0: Real, x1: Real, y0: Real, y1: Real) -> Real {
-    if !(x1 > x0 && y1 > y0) { return 0.0; }
+    if !(x1 > x0 && y1 > y0) {
+        return 0.0;
+    }
     let mut a = 0.0;
     for i in 0..s.len() {
         if s.x[i] >= x0 && s.x[i] < x1 && s.y[i] >= y0 && s.y[i] < y1 {
@@ -176,11 +205,17 @@ fn packing_fraction_window(s: &State, x0: Real, x1: Real, y0: Real, y1: Real) ->
 }
 
 /// Box walls of width `w`: floor, left, right ("gate").
-pub fn box_walls(w: Real) -> Vec<Wall> { vec![Wall::floor(0.0), Wall::left(0.0), Wall::right("gate", w)] }
+pub fn box_walls(w: Real) -> Vec<Wall> {
+    vec![Wall::floor(0.0), Wall::left(0.0), Wall::right("gate", w)]
+}
 
 /// Rain `radii` into a box of `dep.width` in layers from a constant height above the
 /// surface, then settle with the run parameters. Grains keep the order of `radii`.
-pub fn ballistic_deposition(radii: &[Real], run: &DemParams, dep: &DepositionParams) -> Result<(State, SettleReport), DemError> {
+pub fn ballistic_deposition(
+    radii: &[Real],
+    run: &DemParams,
+    dep: &DepositionParams,
+) -> Result<(State, SettleReport), DemError> {
     if radii.is_empty() || !(dep.width > 0.0) {
         return Err(DemError::Setup("deposition needs radii and a positive width".into()));
     }
@@ -189,7 +224,10 @@ pub fn ballistic_deposition(radii: &[Real], run: &DemParams, dep: &DepositionPar
     let pitch = 2.0 * r_max * dep.spacing;
     let per_row = ((dep.width - 2.0 * r_max) / pitch).floor() as usize + 1;
     if per_row == 0 || 2.0 * r_max > dep.width {
-        return Err(DemError::Setup(format!("box width {} m narrower than a grain", dep.width)));
+        return Err(DemError::Setup(format!(
+            "box width {} m narrower than a grain",
+            dep.width
+        )));
     }
     let mut prep = run.softened(dep.softening);
     if let Some(mu) = dep.prep_friction {
@@ -202,13 +240,21 @@ pub fn ballistic_deposition(radii: &[Real], run: &DemParams, dep: &DepositionPar
     let g = world.params.gravity.max(1e-9);
     let mut next = 0usize;
     while next < radii.len() {
-        let surface = (0..world.state.len()).map(|i| world.state.y[i] + world.state.r[i]).fold(0.0, Real::max);
+        let surface = (0..world.state.len())
+            .map(|i| world.state.y[i] + world.state.r[i])
+            .fold(0.0, Real::max);
         let y_base = surface + dep.drop_height * d_mean + r_max;
         'rows: for row in 0..dep.rows_per_layer {
             let offset = if row % 2 == 1 { 0.5 * pitch } else { 0.0 };
-            let slots = if offset > 0.0 { ((dep.width - 2.0 * r_max - offset) / pitch).floor() as usize + 1 } else { per_row };
+            let slots = if offset > 0.0 {
+                ((dep.width - 2.0 * r_max - offset) / pitch).floor() as usize + 1
+            } else {
+                per_row
+            };
             for k in 0..slots {
-                if next >= radii.len() { break 'rows; }
+                if next >= radii.len() {
+                    break 'rows;
+                }
                 // random lateral jitter within the free space of the slot
                 let jitter = (rng.next_f64() - 0.5) * (pitch - 2.0 * r_max);
                 let x = (r_max + offset + k as Real * pitch + jitter).clamp(radii[next], dep.width - radii[next]);
@@ -235,15 +281,28 @@ pub fn ballistic_deposition(radii: &[Real], run: &DemParams, dep: &DepositionPar
 }
 
 /// Remove grains reaching above `h0` (top edge) or right of `l0`, keep the rest.
-pub fn trim(s: &State, l0: Real, h0: Real) -> State { s.retain(|i| s.y[i] + s.r[i] <= h0 && s.x[i] + s.r[i] <= l0) }
+pub fn trim(s: &State, l0: Real, h0: Real) -> State {
+    s.retain(|i| s.y[i] + s.r[i] <= h0 && s.x[i] + s.r[i] <= l0)
+}
 
 /// Deposit `radii` in a box of width L_0, trim to H_0, settle again with the gate in place.
-pub fn deposited_column(radii: &[Real], l0: Real, h0: Real, run: &DemParams, dep: &DepositionParams) -> Result<Column, DemError> {
-    let dep = DepositionParams { width: l0, ..dep.clone() };
+pub fn deposited_column(
+    radii: &[Real],
+    l0: Real,
+    h0: Real,
+    run: &DemParams,
+    dep: &DepositionParams,
+) -> Result<Column, DemError> {
+    let dep = DepositionParams {
+        width: l0,
+        ..dep.clone()
+    };
     let (s, _) = ballistic_deposition(radii, run, &dep)?;
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, Real::max);
     if top < h0 {
-        return Err(DemError::Setup(format!("deposit reaches only {top:.4} m < H_0 = {h0:.4} m: pass more grains")));
+        return Err(DemError::Setup(format!(
+            "deposit reaches only {top:.4} m < H_0 = {h0:.4} m: pass more grains"
+        )));
     }
     let s = trim(&s, l0, h0);
     finish_column(s, l0, run, dep.settle_ratio, dep.max_settle_time)
@@ -291,7 +350,15 @@ fn settled_column(mut w: World, l0: Real, ratio: Real, max_time: Real) -> Result
     let packing_fraction = s.solid_area() / (l0 * h0);
     let d = 2.0 * s.radius_stats().1;
     let packing_fraction_core = packing_fraction_window(&s, 2.0 * d, l0 - 2.0 * d, 2.0 * d, h0 - 2.0 * d);
-    Ok(Column { state: s, l0, h0, packing_fraction, packing_fraction_core, settle, histories })
+    Ok(Column {
+        state: s,
+        l0,
+        h0,
+        packing_fraction,
+        packing_fraction_core,
+        settle,
+        histories,
+    })
 }
 
 /// Monodisperse hexagonal lattice of diameter `d` filling L_0 × H_0 (touching grains,
@@ -309,7 +376,9 @@ pub fn hex_lattice(l0: Real, h0: Real, d: Real, density: Real) -> State {
     let mut row = 0;
     loop {
         let y = r + row as Real * dy;
-        if y + r > h0 { break; }
+        if y + r > h0 {
+            break;
+        }
         let x0 = if row % 2 == 1 { d } else { r };
         let mut x = x0;
         while x + r <= l0 {

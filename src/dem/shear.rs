@@ -16,8 +16,8 @@ use crate::dem::prep::SplitMix64;
 use crate::dem::state::{Motion, State};
 use crate::dem::world::World;
 use crate::math::Real;
-use serde::{Deserialize, Serialize};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Shear-test settings (UNSPEC values from the SC-SHEAR-DEM proposal).
@@ -48,7 +48,17 @@ pub struct ShearParams {
 
 impl Default for ShearParams {
     fn default() -> Self {
-        Self { pressures: vec![1e3, 2e3, 5e3, 1e4, 2e4], inertial_number: 1e-3, strain: 2.0, average_from: 0.5, width: 30.0, layer_pitch: 1.15, compaction_time: 0.5, sample_strain: 0.01, seed: 5 }
+        Self {
+            pressures: vec![1e3, 2e3, 5e3, 1e4, 2e4],
+            inertial_number: 1e-3,
+            strain: 2.0,
+            average_from: 0.5,
+            width: 30.0,
+            layer_pitch: 1.15,
+            compaction_time: 0.5,
+            sample_strain: 0.01,
+            seed: 5,
+        }
     }
 }
 
@@ -141,19 +151,40 @@ fn build_cell(radii: &[Real], sp: &ShearParams, density: Real) -> Cell {
     }
     let mut top = Vec::new();
     for k in 0..n_layer {
-        top.push(s.insert((k as Real + 0.5) * pitch_l, y_top + 1.05 * r_l, r_l, density).0 as usize);
+        top.push(
+            s.insert((k as Real + 0.5) * pitch_l, y_top + 1.05 * r_l, r_l, density)
+                .0 as usize,
+        );
     }
     for &i in bottom.iter().chain(top.iter()) {
         s.set_motion(i, Motion::Prescribed);
     }
-    Cell { state: s, lx, bottom, top, d_mean }
+    Cell {
+        state: s,
+        lx,
+        bottom,
+        top,
+        d_mean,
+    }
 }
 
-fn mean_y(s: &State, idx: &[usize]) -> Real { idx.iter().map(|&i| s.y[i]).sum::<Real>() / idx.len() as Real }
+fn mean_y(s: &State, idx: &[usize]) -> Real {
+    idx.iter().map(|&i| s.y[i]).sum::<Real>() / idx.len() as Real
+}
 
 /// Drive the top layer for `steps` steps at horizontal velocity `v` under pressure `p`;
 /// returns the summed (F_x, F_y) of the sample on the top layer over the steps.
-fn drive(w: &mut World, top: &[usize], m_top: Real, lx: Real, p: Real, v: Real, vy: &mut Real, steps: u64, cap: Real) -> Result<(Real, Real), DemError> {
+fn drive(
+    w: &mut World,
+    top: &[usize],
+    m_top: Real,
+    lx: Real,
+    p: Real,
+    v: Real,
+    vy: &mut Real,
+    steps: u64,
+    cap: Real,
+) -> Result<(Real, Real), DemError> {
     let dt = w.params.dt;
     let (mut sx, mut sy) = (0.0, 0.0);
     for _ in 0..steps {
@@ -182,7 +213,9 @@ fn drive(w: &mut World, top: &[usize], m_top: Real, lx: Real, p: Real, v: Real, 
 /// is switched off; rolling, friction and stiffness as given).
 pub fn shear_test(radii: &[Real], params: &DemParams, sp: &ShearParams) -> Result<ShearResult, DemError> {
     if radii.len() < 20 || sp.pressures.is_empty() {
-        return Err(DemError::Setup("shear test needs ≥ 20 grains and at least one pressure".into()));
+        return Err(DemError::Setup(
+            "shear test needs ≥ 20 grains and at least one pressure".into(),
+        ));
     }
     let mut p = params.clone();
     p.gravity = 0.0;
@@ -190,7 +223,11 @@ pub fn shear_test(radii: &[Real], params: &DemParams, sp: &ShearParams) -> Resul
     // The pressures are independent cells: run them side by side (each cell is small and
     // steps on one thread, team::TEAM_MIN_GRAINS); results in pressure order, identical to a
     // sequential loop.
-    let points = sp.pressures.par_iter().map(|&pres| shear_point(radii, &p, sp, pres)).collect::<Result<Vec<_>, DemError>>()?;
+    let points = sp
+        .pressures
+        .par_iter()
+        .map(|&pres| shear_point(radii, &p, sp, pres))
+        .collect::<Result<Vec<_>, DemError>>()?;
     // fits
     let sxy: Real = points.iter().map(|q| q.sigma_n * q.tau).sum();
     let sxx: Real = points.iter().map(|q| q.sigma_n * q.sigma_n).sum();
@@ -203,7 +240,9 @@ pub fn shear_test(radii: &[Real], params: &DemParams, sp: &ShearParams) -> Resul
         let var: Real = points.iter().map(|q| (q.sigma_n - mx).powi(2)).sum();
         let s = cov / var;
         (s, my - s * mx)
-    } else { (slope0, 0.0) };
+    } else {
+        (slope0, 0.0)
+    };
     Ok(ShearResult {
         friction_angle_deg: slope0.atan().to_degrees(),
         friction_angle_free_deg: slope.atan().to_degrees(),
@@ -251,7 +290,12 @@ fn shear_point(radii: &[Real], p: &DemParams, sp: &ShearParams, pres: Real) -> R
         done += k;
         let h = mean_y(&w.state, &top) - mean_y(&w.state, &cell.bottom);
         let strain = v * done as Real * dt / h0;
-        let smp = ShearSample { strain, tau: -sx / (k as Real * cell.lx), sigma_n: sy / (k as Real * cell.lx), height: h };
+        let smp = ShearSample {
+            strain,
+            tau: -sx / (k as Real * cell.lx),
+            sigma_n: sy / (k as Real * cell.lx),
+            height: h,
+        };
         series.push(smp);
         if strain >= sp.average_from * sp.strain {
             acc_x += sx;
@@ -262,5 +306,14 @@ fn shear_point(radii: &[Real], p: &DemParams, sp: &ShearParams, pres: Real) -> R
     let tau = -acc_x / (acc_n.max(1) as Real * cell.lx);
     let sigma_n = acc_y / (acc_n.max(1) as Real * cell.lx);
     let inertial_number = gdot * cell.d_mean / (sigma_n.max(1e-12) / p.density).sqrt();
-    Ok(ShearPoint { pressure: pres, tau, sigma_n, mu: tau / sigma_n, inertial_number, velocity: v, series, wall_s: started.elapsed().as_secs_f64() })
+    Ok(ShearPoint {
+        pressure: pres,
+        tau,
+        sigma_n,
+        mu: tau / sigma_n,
+        inertial_number,
+        velocity: v,
+        series,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
 }

@@ -11,7 +11,9 @@ pub struct GrainId(pub u32);
 
 impl GrainId {
     /// A sentinel that names no grain.
-    pub fn invalid() -> Self { GrainId(u32::MAX) }
+    pub fn invalid() -> Self {
+        GrainId(u32::MAX)
+    }
 }
 
 /// Key of a grain–grain contact, `i < j` (LAMMPS `FixNeighHistory` keys by the pair).
@@ -25,7 +27,13 @@ pub struct ContactKey {
 
 impl ContactKey {
     /// Key of the unordered pair {a, b}.
-    pub fn new(a: u32, b: u32) -> Self { if a < b { Self { i: a, j: b } } else { Self { i: b, j: a } } }
+    pub fn new(a: u32, b: u32) -> Self {
+        if a < b {
+            Self { i: a, j: b }
+        } else {
+            Self { i: b, j: a }
+        }
+    }
 }
 
 /// Per-contact history. In 2D the tangent space of a contact is one-dimensional, so the
@@ -88,16 +96,34 @@ pub struct State {
 
 impl State {
     /// An empty state.
-    pub fn new() -> Self { Self::default() }
+    pub fn new() -> Self {
+        Self::default()
+    }
     /// Empty state with room for `n` grains.
     pub fn with_capacity(n: usize) -> Self {
         let v = || Vec::with_capacity(n);
-        Self { x: v(), y: v(), vx: v(), vy: v(), w: v(), theta: v(), r: v(), m: v(), inv_m: v(), inertia: v(), inv_i: v() }
+        Self {
+            x: v(),
+            y: v(),
+            vx: v(),
+            vy: v(),
+            w: v(),
+            theta: v(),
+            r: v(),
+            m: v(),
+            inv_m: v(),
+            inertia: v(),
+            inv_i: v(),
+        }
     }
     /// Number of grains.
-    pub fn len(&self) -> usize { self.x.len() }
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
     /// No grains.
-    pub fn is_empty(&self) -> bool { self.x.is_empty() }
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
     /// Add a grain at rest at (x, y) with radius r and density ρ; returns its id.
     pub fn insert(&mut self, x: Real, y: Real, r: Real, density: Real) -> GrainId {
         let m = density * PI * r * r;
@@ -129,21 +155,35 @@ impl State {
         }
     }
     /// Whether grain `i` is integrated.
-    pub fn is_free(&self, i: usize) -> bool { self.inv_m[i] > 0.0 }
+    pub fn is_free(&self, i: usize) -> bool {
+        self.inv_m[i] > 0.0
+    }
     /// Keep only the grains for which `keep(i)` is true (order preserved).
     pub fn retain(&self, keep: impl Fn(usize) -> bool) -> State {
         let idx: Vec<usize> = (0..self.len()).filter(|&i| keep(i)).collect();
         let pick = |v: &Vec<Real>| idx.iter().map(|&i| v[i]).collect::<Vec<_>>();
         State {
-            x: pick(&self.x), y: pick(&self.y), vx: pick(&self.vx), vy: pick(&self.vy), w: pick(&self.w),
-            theta: pick(&self.theta), r: pick(&self.r), m: pick(&self.m), inv_m: pick(&self.inv_m),
-            inertia: pick(&self.inertia), inv_i: pick(&self.inv_i),
+            x: pick(&self.x),
+            y: pick(&self.y),
+            vx: pick(&self.vx),
+            vy: pick(&self.vy),
+            w: pick(&self.w),
+            theta: pick(&self.theta),
+            r: pick(&self.r),
+            m: pick(&self.m),
+            inv_m: pick(&self.inv_m),
+            inertia: pick(&self.inertia),
+            inv_i: pick(&self.inv_i),
         }
     }
     /// Total mass [kg/m].
-    pub fn total_mass(&self) -> Real { self.m.iter().sum() }
+    pub fn total_mass(&self) -> Real {
+        self.m.iter().sum()
+    }
     /// Total solid area Σπr² [m²].
-    pub fn solid_area(&self) -> Real { self.r.iter().map(|r| PI * r * r).sum() }
+    pub fn solid_area(&self) -> Real {
+        self.r.iter().map(|r| PI * r * r).sum()
+    }
     /// Smallest, number-mean and largest radius [m].
     pub fn radius_stats(&self) -> (Real, Real, Real) {
         let mut lo = Real::INFINITY;

@@ -81,7 +81,9 @@ pub(crate) struct Team {
 unsafe impl Sync for Team {}
 
 #[inline(always)]
-fn unpack(s: u64) -> (u64, usize, usize) { (s >> (2 * BITS), ((s >> BITS) & MASK) as usize, (s & MASK) as usize) }
+fn unpack(s: u64) -> (u64, usize, usize) {
+    (s >> (2 * BITS), ((s >> BITS) & MASK) as usize, (s & MASK) as usize)
+}
 
 impl Team {
     fn new(threads: usize) -> Self {
@@ -113,7 +115,9 @@ impl Team {
     /// them, and the last claims of a phase are still single chunks (the balance at its
     /// end is the same).
     #[inline(always)]
-    fn grab(&self, left: usize) -> usize { (left / self.share).max(1) }
+    fn grab(&self, left: usize) -> usize {
+        (left / self.share).max(1)
+    }
 
     /// Lead: run every stage's chunks on the team; returns when all are done. A thread
     /// goes on to the next stage as soon as the current one has no chunk left to claim,
@@ -123,7 +127,8 @@ impl Team {
     /// lead, where every such wait is already satisfied.
     fn run(&self, stages: &[Stage<'_>]) {
         let total: usize = stages.iter().map(|s| s.0).sum();
-        if stages.len() > MAX_STAGES || stages.iter().any(|s| s.0 > MAX_CHUNKS) || total < 2 || self.quit.load(Relaxed) {
+        if stages.len() > MAX_STAGES || stages.iter().any(|s| s.0 > MAX_CHUNKS) || total < 2 || self.quit.load(Relaxed)
+        {
             for &(n, f) in stages {
                 (0..n).for_each(f);
             }
@@ -150,9 +155,14 @@ impl Team {
             loop {
                 let s = st.load(Relaxed);
                 let (_, front, back) = unpack(s);
-                if front >= back { break; }
+                if front >= back {
+                    break;
+                }
                 let c = self.grab(back - front);
-                if st.compare_exchange_weak(s, s + ((c as u64) << BITS), Acquire, Relaxed).is_ok() {
+                if st
+                    .compare_exchange_weak(s, s + ((c as u64) << BITS), Acquire, Relaxed)
+                    .is_ok()
+                {
                     self.chunks(front..front + c, f);
                     mine += c;
                 }
@@ -187,8 +197,12 @@ impl Team {
                         let s = st.load(Acquire);
                         let (se, front, back) = unpack(s);
                         // a newer phase has begun: this one is over
-                        if se != e { break 'stages; }
-                        if front >= back { break; }
+                        if se != e {
+                            break 'stages;
+                        }
+                        if front >= back {
+                            break;
+                        }
                         let c = self.grab(back - front);
                         if st.compare_exchange_weak(s, s - c as u64, AcqRel, Relaxed).is_ok() {
                             // SAFETY: chunks of this stage are claimed, so its job is set
@@ -204,7 +218,9 @@ impl Team {
                 spins = 0;
                 continue;
             }
-            if self.quit.load(Acquire) { return; }
+            if self.quit.load(Acquire) {
+                return;
+            }
             backoff(&mut spins);
         }
     }
@@ -232,7 +248,9 @@ thread_local! {
 /// Clears `MEMBER` when a helper leaves its team.
 struct Member;
 impl Drop for Member {
-    fn drop(&mut self) { MEMBER.with(|m| m.set(std::ptr::null())); }
+    fn drop(&mut self) {
+        MEMBER.with(|m| m.set(std::ptr::null()));
+    }
 }
 
 /// Wait until `flag` holds the stamp `id` (a chunk's output is visible, acquire) — or
@@ -299,7 +317,9 @@ pub(crate) fn active() -> bool {
 
 /// `f(c)` for every chunk `c` in `0..nc`: on the current team if there is one, else in
 /// order on this thread.
-pub(crate) fn for_chunks(nc: usize, f: &(dyn Fn(usize) + Sync)) { for_stages(&[(nc, f)]) }
+pub(crate) fn for_chunks(nc: usize, f: &(dyn Fn(usize) + Sync)) {
+    for_stages(&[(nc, f)])
+}
 
 /// Every stage's chunks, as one phase: on the current team if there is one (see
 /// [`Team::run`]: a chunk that reads another stage's output must wait for it), else

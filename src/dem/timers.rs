@@ -30,7 +30,16 @@ pub struct PhaseTimers {
 
 impl PhaseTimers {
     /// Sum of all phases [s].
-    pub fn total(&self) -> f64 { self.neighbors + self.contacts + self.gather + self.walls + self.integrate + self.rolling + self.ledger + self.watchdog }
+    pub fn total(&self) -> f64 {
+        self.neighbors
+            + self.contacts
+            + self.gather
+            + self.walls
+            + self.integrate
+            + self.rolling
+            + self.ledger
+            + self.watchdog
+    }
 }
 
 /// A phase timer a phase's wall time is apportioned to (`World::apportion`).
@@ -50,7 +59,9 @@ pub struct Clock(Option<Instant>);
 impl Clock {
     /// Read the clock if `on`.
     #[inline(always)]
-    pub fn now(on: bool) -> Self { Clock(if on { Some(Instant::now()) } else { None }) }
+    pub fn now(on: bool) -> Self {
+        Clock(if on { Some(Instant::now()) } else { None })
+    }
     /// Seconds from `self` to `later` (0 when either was not read).
     #[inline(always)]
     pub fn to(self, later: Clock) -> f64 {
@@ -61,7 +72,9 @@ impl Clock {
     }
     /// Seconds since `self` (0 when it was not read).
     #[inline(always)]
-    pub fn elapsed(self) -> f64 { self.0.map_or(0.0, |t| t.elapsed().as_secs_f64()) }
+    pub fn elapsed(self) -> f64 {
+        self.0.map_or(0.0, |t| t.elapsed().as_secs_f64())
+    }
 }
 
 /// Run `f`, add its duration to `*slot`.

@@ -23,19 +23,35 @@ pub struct Wall {
 impl Wall {
     /// Wall through `origin` with inward `normal` (normalised here), at rest, active.
     pub fn new(name: &str, origin: Vec2, normal: Vec2) -> Self {
-        Self { name: name.to_string(), origin, normal: normal.normalize(), velocity: Vec2::zeros(), active: true }
+        Self {
+            name: name.to_string(),
+            origin,
+            normal: normal.normalize(),
+            velocity: Vec2::zeros(),
+            active: true,
+        }
     }
     /// Floor y = y0.
-    pub fn floor(y0: Real) -> Self { Self::new("floor", Vec2::new(0.0, y0), Vec2::new(0.0, 1.0)) }
+    pub fn floor(y0: Real) -> Self {
+        Self::new("floor", Vec2::new(0.0, y0), Vec2::new(0.0, 1.0))
+    }
     /// Left wall x = x0 (grains to its right).
-    pub fn left(x0: Real) -> Self { Self::new("left", Vec2::new(x0, 0.0), Vec2::new(1.0, 0.0)) }
+    pub fn left(x0: Real) -> Self {
+        Self::new("left", Vec2::new(x0, 0.0), Vec2::new(1.0, 0.0))
+    }
     /// Right wall x = x0 (grains to its left).
-    pub fn right(name: &str, x0: Real) -> Self { Self::new(name, Vec2::new(x0, 0.0), Vec2::new(-1.0, 0.0)) }
+    pub fn right(name: &str, x0: Real) -> Self {
+        Self::new(name, Vec2::new(x0, 0.0), Vec2::new(-1.0, 0.0))
+    }
     /// Ceiling y = y0 (grains below it).
-    pub fn ceiling(name: &str, y0: Real) -> Self { Self::new(name, Vec2::new(0.0, y0), Vec2::new(0.0, -1.0)) }
+    pub fn ceiling(name: &str, y0: Real) -> Self {
+        Self::new(name, Vec2::new(0.0, y0), Vec2::new(0.0, -1.0))
+    }
     /// Signed distance of point p from the wall line (positive inside the domain).
     #[inline(always)]
-    pub fn distance(&self, p: Vec2) -> Real { (p - self.origin).dot(&self.normal) }
+    pub fn distance(&self, p: Vec2) -> Real {
+        (p - self.origin).dot(&self.normal)
+    }
 }
 
 /// Per wall, the grains that may touch it before the lists must be made again: a Verlet
@@ -75,7 +91,9 @@ pub(crate) struct NearWalls {
 impl NearWalls {
     /// The lists must be made again before their next use (grains added, histories
     /// restored, positions rebuilt).
-    pub fn invalidate(&mut self) { self.made = false; }
+    pub fn invalidate(&mut self) {
+        self.made = false;
+    }
 
     /// Whether the lists still hold for `n` grains and these walls.
     pub fn hold(&self, walls: &[Wall], n: usize) -> bool {
@@ -83,13 +101,24 @@ impl NearWalls {
             && !self.all
             && self.n == n
             && self.at.len() == walls.len()
-            && walls.iter().zip(&self.at).all(|(w, &(o, nrm))| w.normal == nrm && !((w.origin - o).dot(&nrm).abs() > 0.5 * self.skin))
+            && walls
+                .iter()
+                .zip(&self.at)
+                .all(|(w, &(o, nrm))| w.normal == nrm && !((w.origin - o).dot(&nrm).abs() > 0.5 * self.skin))
     }
 
     /// Make the lists for grain chunks of `chunk` grains: radii `r`, build positions
     /// `x0`, `y0` (empty: list every grain, and make the lists again at the next use),
     /// skin `skin`, live flags `live` (`wall * n + grain`).
-    pub fn make(&mut self, walls: &[Wall], (x0, y0): (&[Real], &[Real]), r: &[Real], skin: Real, live: &[u8], chunk: usize) {
+    pub fn make(
+        &mut self,
+        walls: &[Wall],
+        (x0, y0): (&[Real], &[Real]),
+        r: &[Real],
+        skin: Real,
+        live: &[u8],
+        chunk: usize,
+    ) {
         let n = r.len();
         let nc = n.div_ceil(chunk);
         let all = x0.len() != n || y0.len() != n;
@@ -101,7 +130,8 @@ impl NearWalls {
                 self.start.push(self.grains.len() as u32);
                 for a in c * chunk..((c + 1) * chunk).min(n) {
                     // NaN positions are listed (the pass and the watchdog see them)
-                    let near = all || live[wi * n + a] != 0 || !(r[a] - wall.distance(Vec2::new(x0[a], y0[a])) < -1.5 * skin);
+                    let near =
+                        all || live[wi * n + a] != 0 || !(r[a] - wall.distance(Vec2::new(x0[a], y0[a])) < -1.5 * skin);
                     if near {
                         self.grains.push(a as u32);
                     }
@@ -131,7 +161,12 @@ mod tests {
         let r: Vec<Real> = (0..n).map(|_| 0.5 + 0.5 * u()).collect();
         let x0: Vec<Real> = (0..n).map(|_| 20.0 * u() - 10.0).collect();
         let y0: Vec<Real> = (0..n).map(|_| 20.0 * u() - 10.0).collect();
-        let walls0 = vec![Wall::floor(-10.0), Wall::left(-10.0), Wall::right("r", 10.0), Wall::new("slant", Vec2::new(0.0, 8.0), Vec2::new(-1.0, -2.0))];
+        let walls0 = vec![
+            Wall::floor(-10.0),
+            Wall::left(-10.0),
+            Wall::right("r", 10.0),
+            Wall::new("slant", Vec2::new(0.0, 8.0), Vec2::new(-1.0, -2.0)),
+        ];
         let live = vec![0u8; MAX_WALLS_TEST * n];
         let mut near = NearWalls::default();
         near.make(&walls0, (&x0, &y0), &r, skin, &live, chunk);
@@ -161,7 +196,11 @@ mod tests {
             for a in 0..n {
                 let (ang, len) = (u() * std::f64::consts::TAU, 0.5 * skin * u().sqrt());
                 for (wi, w) in walls.iter().enumerate() {
-                    let p = if worst { Vec2::new(x0[a], y0[a]) - w.normal * half } else { Vec2::new(x0[a] + len * ang.cos(), y0[a] + len * ang.sin()) };
+                    let p = if worst {
+                        Vec2::new(x0[a], y0[a]) - w.normal * half
+                    } else {
+                        Vec2::new(x0[a] + len * ang.cos(), y0[a] + len * ang.sin())
+                    };
                     if r[a] - w.distance(p) > 0.0 {
                         touching += 1;
                         assert!(listed(wi, a), "grain {a} touches wall {wi} unlisted (trial {trial})");

@@ -12,14 +12,30 @@ impl World {
         let s = &self.state;
         let (step, t) = (self.steps, self.t);
         for i in 0..s.len() {
-            if !(s.x[i].is_finite() && s.y[i].is_finite() && s.vx[i].is_finite() && s.vy[i].is_finite() && s.w[i].is_finite()) {
-                return Err(DemError::NonFinite { step, t, grain: i as u32 });
+            if !(s.x[i].is_finite()
+                && s.y[i].is_finite()
+                && s.vx[i].is_finite()
+                && s.vy[i].is_finite()
+                && s.w[i].is_finite())
+            {
+                return Err(DemError::NonFinite {
+                    step,
+                    t,
+                    grain: i as u32,
+                });
             }
         }
         let lim = self.params.watchdog.max_overlap_fraction;
         if self.info.max_overlap_fraction > lim {
             let (i, j) = self.info.max_pair;
-            return Err(DemError::Overlap { step, t, i, j, fraction: self.info.max_overlap_fraction, limit: lim });
+            return Err(DemError::Overlap {
+                step,
+                t,
+                i,
+                j,
+                fraction: self.info.max_overlap_fraction,
+                limit: lim,
+            });
         }
         if self.energy_check {
             let e = self.energies();
@@ -28,8 +44,16 @@ impl World {
             let scale = self.e0.abs().max(self.ledger.external_work.abs()).max(1e-12);
             let allowed = input + self.params.watchdog.energy_rise_fraction * scale;
             if mech > allowed {
-                let grain = (0..s.len()).max_by(|&a, &b| grain_ke(s, a).partial_cmp(&grain_ke(s, b)).unwrap()).unwrap_or(0);
-                return Err(DemError::EnergyRise { step, t, grain: grain as u32, energy: mech, allowed });
+                let grain = (0..s.len())
+                    .max_by(|&a, &b| grain_ke(s, a).partial_cmp(&grain_ke(s, b)).unwrap())
+                    .unwrap_or(0);
+                return Err(DemError::EnergyRise {
+                    step,
+                    t,
+                    grain: grain as u32,
+                    energy: mech,
+                    allowed,
+                });
             }
         }
         Ok(())

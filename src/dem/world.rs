@@ -24,19 +24,19 @@
 use crate::dem::contact_law::{Law, LawCoeffs, RollDashpot};
 use crate::dem::energy::{Balance, Energies, Ledger};
 use crate::dem::error::DemError;
+use crate::dem::integrate::{SpinJob, SpinOut};
 use crate::dem::neighbors::NeighborList;
 use crate::dem::params::{DemParams, RollingDamping, normal_damping};
+use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
 use crate::dem::preflight::{Preflight, SizeClasses, preflight};
 use crate::dem::state::{ContactState, State};
+use crate::dem::team::wait_for;
+use crate::dem::timers::Phase;
 use crate::dem::timers::{Clock, PhaseTimers};
 use crate::dem::walls::{NearWalls, Wall};
-use crate::dem::integrate::{SpinJob, SpinOut};
-use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
-use crate::dem::timers::Phase;
-use std::sync::atomic::{AtomicU64, Ordering::Release};
-use crate::dem::team::wait_for;
 use crate::math::{Real, Vec2};
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, Ordering::Release};
 use std::time::Instant;
 
 /// Pairs per parallel work unit (fixed: the reduction order must not depend on threads).
@@ -67,13 +67,19 @@ unsafe impl<T> Sync for Ptr<T> {}
 impl<T> Ptr<T> {
     /// Write slot `i` without reading or dropping what was there.
     #[inline(always)]
-    pub(crate) unsafe fn write(&self, i: usize, v: T) { unsafe { self.0.add(i).write(v) } }
+    pub(crate) unsafe fn write(&self, i: usize, v: T) {
+        unsafe { self.0.add(i).write(v) }
+    }
 }
 impl<T: Copy> Ptr<T> {
     #[inline(always)]
-    pub(crate) unsafe fn get(self, i: usize) -> T { unsafe { *self.0.add(i) } }
+    pub(crate) unsafe fn get(self, i: usize) -> T {
+        unsafe { *self.0.add(i) }
+    }
     #[inline(always)]
-    pub(crate) unsafe fn set(self, i: usize, v: T) { unsafe { *self.0.add(i) = v } }
+    pub(crate) unsafe fn set(self, i: usize, v: T) {
+        unsafe { *self.0.add(i) = v }
+    }
 }
 
 /// Per-chunk partial results, summed in chunk order.
@@ -98,7 +104,9 @@ pub(crate) struct Partial {
 pub(crate) struct Flags(pub(crate) Vec<AtomicU64>);
 impl Clone for Flags {
     /// Fresh flags (a copied world's phases start over: stamps of 0 are never waited for).
-    fn clone(&self) -> Self { Flags::default() }
+    fn clone(&self) -> Self {
+        Flags::default()
+    }
 }
 impl Flags {
     pub(crate) fn ensure(&mut self, n: usize) {
@@ -295,11 +303,17 @@ impl World {
     pub fn new(params: DemParams, state: State, walls: Vec<Wall>, periodic_x: Option<Real>) -> Result<Self, DemError> {
         let issues = params.validate();
         if !issues.is_empty() {
-            let s: Vec<String> = issues.iter().map(|i| format!("{} = {} (allowed: {})", i.key, i.value, i.allowed)).collect();
+            let s: Vec<String> = issues
+                .iter()
+                .map(|i| format!("{} = {} (allowed: {})", i.key, i.value, i.allowed))
+                .collect();
             return Err(DemError::InvalidParams(s.join("; ")));
         }
         if walls.len() > MAX_WALLS {
-            return Err(DemError::Setup(format!("{} walls given, at most {MAX_WALLS} supported", walls.len())));
+            return Err(DemError::Setup(format!(
+                "{} walls given, at most {MAX_WALLS} supported",
+                walls.len()
+            )));
         }
         if periodic_x.is_some_and(|l| !(l > 0.0)) {
             return Err(DemError::Setup("periodic period must be > 0".into()));
@@ -390,7 +404,9 @@ impl World {
         let m = std::mem::take(&mut self.state.m);
         let mut s = std::mem::take(&mut self.state);
         s.m = Vec::new();
-        self.nl.build(&mut s, skin, self.periodic_x, |i, j| normal_damping(z, m[i] * m[j] / (m[i] + m[j]), kn));
+        self.nl.build(&mut s, skin, self.periodic_x, |i, j| {
+            normal_damping(z, m[i] * m[j] / (m[i] + m[j]), kn)
+        });
         s.m = m;
         self.state = s;
         let np = self.nl.len();
@@ -398,7 +414,13 @@ impl World {
         // (the dashpot lists keep their size until the next pair pass writes them: the
         // sweeps between a rebuild and that pass read the last evaluation's dashpots)
         self.todo.resize(np.div_ceil(PAIR_CHUNK) * PAIR_CHUNK, 0);
-        self.gdeps = grain_chunk_deps(&self.nl.istart, &self.nl.jstart, &self.nl.jlist, self.state.len(), GRAIN_CHUNK);
+        self.gdeps = grain_chunk_deps(
+            &self.nl.istart,
+            &self.nl.jstart,
+            &self.nl.jlist,
+            self.state.len(),
+            GRAIN_CHUNK,
+        );
         self.all_pairs_live();
         self.near.invalidate();
     }
@@ -416,13 +438,22 @@ impl World {
     /// Make the near-wall lists again if they no longer hold (see [`NearWalls`]).
     pub(crate) fn ensure_near_walls(&mut self) {
         if !self.near.hold(&self.walls, self.state.len()) {
-            self.near.make(&self.walls, (&self.nl.x0, &self.nl.y0), &self.state.r, self.nl.skin, &self.wlive, GRAIN_CHUNK);
+            self.near.make(
+                &self.walls,
+                (&self.nl.x0, &self.nl.y0),
+                &self.state.r,
+                self.nl.skin,
+                &self.wlive,
+                GRAIN_CHUNK,
+            );
         }
     }
 
     /// Forces must be recomputed before the next kick (after external state edits that
     /// change positions, e.g. moving grains by hand).
-    pub fn invalidate_forces(&mut self) { self.forces_valid = false; }
+    pub fn invalidate_forces(&mut self) {
+        self.forces_valid = false;
+    }
 
     /// Size classes of the current grains.
     pub fn size_classes(&self) -> SizeClasses {
@@ -432,7 +463,12 @@ impl World {
 
     /// Stability audit of this scene at `params.dt`.
     pub fn preflight(&self) -> Result<Preflight, DemError> {
-        preflight(&self.params, self.size_classes(), !self.walls.is_empty(), self.params.dt)
+        preflight(
+            &self.params,
+            self.size_classes(),
+            !self.walls.is_empty(),
+            self.params.dt,
+        )
     }
 
     /// Restart the ledger: zero dissipation, E_0 = current total energy.
@@ -442,15 +478,22 @@ impl World {
     }
 
     /// Add work done on the grains by an outside driver [J/m].
-    pub fn add_external_work(&mut self, w: Real) { self.ledger.external_work += w; }
+    pub fn add_external_work(&mut self, w: Real) {
+        self.ledger.external_work += w;
+    }
 
     /// One step.
-    pub fn step(&mut self) -> Result<(), DemError> { self.run(1) }
+    pub fn step(&mut self) -> Result<(), DemError> {
+        self.run(1)
+    }
 
     /// `n` steps; physics variant chosen once.
     pub fn run(&mut self, n: u64) -> Result<(), DemError> {
         if self.walls.len() > MAX_WALLS {
-            return Err(DemError::Setup(format!("{} walls, at most {MAX_WALLS} supported", self.walls.len())));
+            return Err(DemError::Setup(format!(
+                "{} walls, at most {MAX_WALLS} supported",
+                self.walls.len()
+            )));
         }
         let rolling = self.params.rolling.enabled;
         // no dashpot (c_r = 0): nothing to sweep; the explicit path is the same arithmetic
@@ -523,7 +566,11 @@ impl World {
             } else {
                 // alone until the team's next try (timed: the reference for it; steps alone
                 // are measured whenever they run)
-                let k = if self.solo_ref.is_some() { left.min(self.team_until - self.steps) } else { left };
+                let k = if self.solo_ref.is_some() {
+                    left.min(self.team_until - self.steps)
+                } else {
+                    left
+                };
                 let t0 = Instant::now();
                 res = self.steps_with::<R, IMP, L>(k);
                 if k >= TEAM_PROBE {
@@ -543,7 +590,11 @@ impl World {
     /// not pay on this scene: the team rests, and is tried again after TEAM_REST steps,
     /// doubling with every further loss up to 4 × TEAM_REST) or when the reference is
     /// older than TEAM_REFRESH steps. `ran`: steps done.
-    fn team_blocks<const R: bool, const IMP: bool, const L: bool>(&mut self, left: u64, ran: &mut u64) -> Result<(), DemError> {
+    fn team_blocks<const R: bool, const IMP: bool, const L: bool>(
+        &mut self,
+        left: u64,
+        ran: &mut u64,
+    ) -> Result<(), DemError> {
         let warm = (TEAM_PROBE / 4).min(left);
         self.steps_with::<R, IMP, L>(warm)?;
         *ran = warm;
@@ -595,7 +646,11 @@ impl World {
     /// it did the translational first half of this one (with whether the list must be
     /// rebuilt) and left its spin work to this step's start; `join`: do the same for the
     /// next step (returned as its `first`).
-    fn step_with<const R: bool, const IMP: bool, const L: bool>(&mut self, first: Option<bool>, join: bool) -> Result<Option<bool>, DemError> {
+    fn step_with<const R: bool, const IMP: bool, const L: bool>(
+        &mut self,
+        first: Option<bool>,
+        join: bool,
+    ) -> Result<Option<bool>, DemError> {
         let dt = self.params.dt;
         let on = self.timing;
         let t0 = Clock::now(on);
@@ -605,7 +660,9 @@ impl World {
         };
         let t1 = Clock::now(on);
         self.timers.integrate += t0.to(t1);
-        if moved { self.refresh_neighbors(); }
+        if moved {
+            self.refresh_neighbors();
+        }
         let t2 = Clock::now(on);
         self.timers.neighbors += t1.to(t2);
         // contacts, walls and the second half kick (fused per grain chunk); on a team, as
@@ -641,7 +698,9 @@ impl World {
         Ok(None)
     }
 
-    fn refresh_neighbors(&mut self) { self.rebuild(); }
+    fn refresh_neighbors(&mut self) {
+        self.rebuild();
+    }
 
     /// Contact and wall forces at the current positions with the current velocities;
     /// histories advance by `dt` (0 for the priming evaluation). With `KICK`, the second
@@ -651,7 +710,8 @@ impl World {
     fn compute_forces<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) {
         let on = self.timing;
         let t0 = Clock::now(on);
-        (self.paths.rolling_forces, self.paths.ledger) = (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
+        (self.paths.rolling_forces, self.paths.ledger) =
+            (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
         let p = self.compute_contacts::<R, IMP, L>(dt);
         let t1 = Clock::now(on);
         self.timers.contacts += t0.to(t1);
@@ -681,10 +741,16 @@ impl World {
     /// chunk order, in the order of the separate passes (`integrate_second_half`,
     /// `integrate_first_half`, `compute_forces`): results are bit-identical to them.
     /// Returns whether the next step's drift moved a grain past the skin.
-    fn staged_forces<const R: bool, const IMP: bool, const L: bool>(&mut self, dt: Real, spin: bool, next: bool) -> bool {
+    fn staged_forces<const R: bool, const IMP: bool, const L: bool>(
+        &mut self,
+        dt: Real,
+        spin: bool,
+        next: bool,
+    ) -> bool {
         let on = self.timing;
         let clock = Clock::now(on);
-        (self.paths.rolling_forces, self.paths.ledger) = (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
+        (self.paths.rolling_forces, self.paths.ledger) =
+            (self.paths.rolling_forces + R as u64, self.paths.ledger + L as u64);
         self.paths.rolling_dashpot += 2 * spin as u64;
         let mut total = Partial::default();
         self.release_inactive_walls::<R, IMP, L>(&mut total);
@@ -699,7 +765,11 @@ impl World {
         let pairs = PairPass::<R, IMP, L>::new(self, dt);
         let spin_job = spin.then(|| SpinJob::<L>::new(self));
         let grains = GrainPass::<R, IMP, L, true>::new(self, dt, next);
-        let (fout, pout, gout) = (slots(&mut self.filtered, 1 + npc), slots(&mut self.partials, npc), slots(&mut self.gpartials, ngc));
+        let (fout, pout, gout) = (
+            slots(&mut self.filtered, 1 + npc),
+            slots(&mut self.partials, npc),
+            slots(&mut self.gpartials, ngc),
+        );
         let (fdone, pdone, gdeps) = (&self.fdone.0[..], &self.pdone.0[..], &self.gdeps[..]);
         let mut spin_out = SpinOut::default();
         let sp = Ptr(&mut spin_out as *mut SpinOut);
@@ -766,13 +836,16 @@ impl World {
         if on {
             let filter_s: f64 = self.filtered[1..].iter().map(|f| f.1).sum();
             let pair_s: f64 = self.partials.iter().map(|p| p.secs).sum();
-            self.apportion(wall_s, &[
-                (Phase::Rolling, spin_out.sweep_s),
-                (Phase::Integrate, spin_out.kick_s + cpu[2]),
-                (Phase::Contacts, filter_s + pair_s),
-                (Phase::Gather, cpu[0]),
-                (Phase::Walls, cpu[1]),
-            ]);
+            self.apportion(
+                wall_s,
+                &[
+                    (Phase::Rolling, spin_out.sweep_s),
+                    (Phase::Integrate, spin_out.kick_s + cpu[2]),
+                    (Phase::Contacts, filter_s + pair_s),
+                    (Phase::Gather, cpu[0]),
+                    (Phase::Walls, cpu[1]),
+                ],
+            );
         }
         k.moved
     }
@@ -780,7 +853,11 @@ impl World {
     fn ledger_phase<const L: bool>(&mut self, p: &Partial, q: &Partial) {
         let (fp, fq) = (p.max_overlap, q.max_overlap);
         self.info.max_overlap_fraction = fp.max(fq);
-        self.info.max_pair = if fp >= fq { (p.max_i, p.max_j) } else { (q.max_i, u32::MAX) };
+        self.info.max_pair = if fp >= fq {
+            (p.max_i, p.max_j)
+        } else {
+            (q.max_i, u32::MAX)
+        };
         self.info.wall_force = q.wall_force;
         if L {
             self.ledger += p.ledger;
@@ -794,7 +871,9 @@ impl World {
         let pass = PairPass::<R, IMP, L>::new(self, dt);
         let np = self.nl.len();
         // SAFETY: one chunk per call, the job made for this list just now
-        chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| unsafe { pass.chunk(lo, hi, None) });
+        chunked(np, PAIR_CHUNK, &mut self.partials, |lo, hi| unsafe {
+            pass.chunk(lo, hi, None)
+        });
         self.pair_partials()
     }
 
@@ -812,15 +891,27 @@ impl World {
     /// The per-grain pass after the pair pass ([`GrainPass`]), one fork-join: returns the
     /// wall partial (with the released inactive walls first) and the kick partial, each
     /// merged in chunk order.
-    fn grain_pass<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(&mut self, dt: Real) -> (Partial, Partial) {
+    fn grain_pass<const R: bool, const IMP: bool, const L: bool, const KICK: bool>(
+        &mut self,
+        dt: Real,
+    ) -> (Partial, Partial) {
         let clock = Clock::now(self.timing);
         let mut total = Partial::default();
         self.release_inactive_walls::<R, IMP, L>(&mut total);
         let pass = GrainPass::<R, IMP, L, KICK>::new(self, dt, false);
         // SAFETY: one chunk per call, after the pair pass, the job made just now
-        chunked(self.state.len(), GRAIN_CHUNK, &mut self.gpartials, |lo, hi| unsafe { pass.chunk(lo, hi) });
+        chunked(self.state.len(), GRAIN_CHUNK, &mut self.gpartials, |lo, hi| unsafe {
+            pass.chunk(lo, hi)
+        });
         let (wall, kick, cpu) = self.grain_partials(total);
-        self.apportion(clock.elapsed(), &[(Phase::Gather, cpu[0]), (Phase::Walls, cpu[1]), (Phase::Integrate, cpu[2])]);
+        self.apportion(
+            clock.elapsed(),
+            &[
+                (Phase::Gather, cpu[0]),
+                (Phase::Walls, cpu[1]),
+                (Phase::Integrate, cpu[2]),
+            ],
+        );
         (wall, kick)
     }
 
@@ -876,7 +967,9 @@ impl World {
                 self.wall_cleared[wi] = false;
                 continue;
             }
-            if self.wall_cleared[wi] { continue; }
+            if self.wall_cleared[wi] {
+                continue;
+            }
             for h in &mut self.wall_hist[wi * n..(wi + 1) * n] {
                 if L {
                     let (et, er) = Law::<R, IMP, L>::released(&coeffs, h);
@@ -900,7 +993,15 @@ impl World {
             e.eky += 0.5 * s.m[i] * s.vy[i] * s.vy[i];
             e.erot += 0.5 * s.inertia[i] * s.w[i] * s.w[i];
         }
-        let (kn, kt, kr) = (self.params.grain.kn, self.params.grain.kt, if self.params.rolling.enabled { self.params.rolling.kr } else { 0.0 });
+        let (kn, kt, kr) = (
+            self.params.grain.kn,
+            self.params.grain.kt,
+            if self.params.rolling.enabled {
+                self.params.rolling.kr
+            } else {
+                0.0
+            },
+        );
         let lx = self.periodic_x.unwrap_or(0.0);
         let nl = &self.nl;
         for k in 0..nl.len() {
@@ -937,29 +1038,46 @@ impl World {
     pub fn balance(&self) -> Balance {
         let energies = self.energies();
         let residual = self.e0 + self.ledger.external_work - (energies.total() + self.ledger.dissipated());
-        Balance { e0: self.e0, energies, ledger: self.ledger, residual }
+        Balance {
+            e0: self.e0,
+            energies,
+            ledger: self.ledger,
+            residual,
+        }
     }
 
     /// Number of grain–grain contacts (overlapping listed pairs) now.
     pub fn contact_count(&self) -> usize {
         let s = &self.state;
         let lx = self.periodic_x.unwrap_or(0.0);
-        (0..self.nl.len()).filter(|&k| {
-            let (i, j) = (self.nl.pi[k] as usize, self.nl.pj[k] as usize);
-            let dx = s.x[i] - (s.x[j] + self.nl.shift[k] * lx);
-            let dy = s.y[i] - s.y[j];
-            let rs = s.r[i] + s.r[j];
-            dx * dx + dy * dy < rs * rs
-        }).count()
+        (0..self.nl.len())
+            .filter(|&k| {
+                let (i, j) = (self.nl.pi[k] as usize, self.nl.pj[k] as usize);
+                let dx = s.x[i] - (s.x[j] + self.nl.shift[k] * lx);
+                let dy = s.y[i] - s.y[j];
+                let rs = s.r[i] + s.r[j];
+                dx * dx + dy * dy < rs * rs
+            })
+            .count()
     }
 
     /// All listed grain pairs with their history (zero for pairs not in contact).
     pub fn contact_histories(&self) -> impl Iterator<Item = (crate::dem::state::ContactKey, ContactState)> + '_ {
-        (0..self.nl.len()).map(|k| (crate::dem::state::ContactKey { i: self.nl.pi[k], j: self.nl.pj[k] }, self.nl.hist[k]))
+        (0..self.nl.len()).map(|k| {
+            (
+                crate::dem::state::ContactKey {
+                    i: self.nl.pi[k],
+                    j: self.nl.pj[k],
+                },
+                self.nl.hist[k],
+            )
+        })
     }
 
     /// Contact history between grains a and b, if listed.
-    pub fn contact_history(&self, a: u32, b: u32) -> Option<ContactState> { self.nl.history(a, b) }
+    pub fn contact_history(&self, a: u32, b: u32) -> Option<ContactState> {
+        self.nl.history(a, b)
+    }
 
     /// Contact histories worth keeping across a restart: grain pairs and grain–wall
     /// contacts whose springs hold something.
@@ -986,7 +1104,12 @@ impl World {
         let mut restored = 0;
         for &(a, b, st) in &h.pairs {
             let key = crate::dem::state::ContactKey::new(a, b);
-            let (Some(&lo), Some(&hi)) = (self.nl.istart.get(key.i as usize), self.nl.istart.get(key.i as usize + 1)) else { continue };
+            let (Some(&lo), Some(&hi)) = (
+                self.nl.istart.get(key.i as usize),
+                self.nl.istart.get(key.i as usize + 1),
+            ) else {
+                continue;
+            };
             if let Some(k) = (lo as usize..hi as usize).find(|&k| self.nl.pj[k] == key.j) {
                 self.nl.hist[k] = st;
                 restored += 1;
@@ -1007,11 +1130,19 @@ impl World {
     }
 
     /// Total contact + gravity force on grain i from the last evaluation [N/m].
-    pub fn force(&self, i: usize) -> Vec2 { Vec2::new(self.fx[i], self.fy[i]) }
+    pub fn force(&self, i: usize) -> Vec2 {
+        Vec2::new(self.fx[i], self.fy[i])
+    }
     /// Total torque on grain i from the last evaluation [N·m/m].
-    pub fn torque(&self, i: usize) -> Real { self.tq[i] }
+    pub fn torque(&self, i: usize) -> Real {
+        self.tq[i]
+    }
     /// Number of listed (Verlet) pairs.
-    pub fn pair_count(&self) -> usize { self.nl.len() }
+    pub fn pair_count(&self) -> usize {
+        self.nl.len()
+    }
     /// Number of neighbour-list builds so far.
-    pub fn rebuilds(&self) -> u64 { self.nl.builds }
+    pub fn rebuilds(&self) -> u64 {
+        self.nl.builds
+    }
 }

@@ -138,7 +138,12 @@ pub struct TwoRegimes {
 /// is kept; the break is where the two fitted lines cross if that lies between the
 /// neighbouring x values, else their geometric mean.
 pub fn two_regimes(x: &[f64], y: &[f64], break_x: Option<f64>) -> Result<TwoRegimes, FitError> {
-    let mut pts: Vec<(f64, f64)> = x.iter().zip(y).filter(|(a, b)| **a > 0.0 && **b > 0.0 && a.is_finite() && b.is_finite()).map(|(a, b)| (*a, *b)).collect();
+    let mut pts: Vec<(f64, f64)> = x
+        .iter()
+        .zip(y)
+        .filter(|(a, b)| **a > 0.0 && **b > 0.0 && a.is_finite() && b.is_finite())
+        .map(|(a, b)| (*a, *b))
+        .collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let xs: Vec<f64> = pts.iter().map(|p| p.0).collect();
     let ys: Vec<f64> = pts.iter().map(|p| p.1).collect();
@@ -146,7 +151,12 @@ pub fn two_regimes(x: &[f64], y: &[f64], break_x: Option<f64>) -> Result<TwoRegi
         let k = xs.partition_point(|&v| v <= b);
         let low = power_law(&xs[..k], &ys[..k])?;
         let high = power_law(&xs[k..], &ys[k..])?;
-        return Ok(TwoRegimes { low, high, break_x: b, estimated: false });
+        return Ok(TwoRegimes {
+            low,
+            high,
+            break_x: b,
+            estimated: false,
+        });
     }
     if xs.len() < 6 {
         return Err(FitError::TooFewPoints(xs.len()));
@@ -156,7 +166,9 @@ pub fn two_regimes(x: &[f64], y: &[f64], break_x: Option<f64>) -> Result<TwoRegi
         if xs[k - 1] == xs[k] {
             continue;
         }
-        let (Ok(lo), Ok(hi)) = (power_law(&xs[..k], &ys[..k]), power_law(&xs[k..], &ys[k..])) else { continue };
+        let (Ok(lo), Ok(hi)) = (power_law(&xs[..k], &ys[..k]), power_law(&xs[k..], &ys[k..])) else {
+            continue;
+        };
         let sse = lo.sse + hi.sse;
         if best.as_ref().is_none_or(|b| sse < b.0) {
             best = Some((sse, k, lo, hi));
@@ -165,9 +177,22 @@ pub fn two_regimes(x: &[f64], y: &[f64], break_x: Option<f64>) -> Result<TwoRegi
     let (_, k, low, high) = best.ok_or(FitError::Degenerate)?;
     // Crossing of the two lines in log space.
     let dn = low.exponent - high.exponent;
-    let cross = if dn.abs() > 1e-12 { 10f64.powf((high.prefactor.log10() - low.prefactor.log10()) / dn) } else { f64::NAN };
-    let break_x = if cross.is_finite() && cross >= xs[k - 1] && cross <= xs[k] { cross } else { (xs[k - 1] * xs[k]).sqrt() };
-    Ok(TwoRegimes { low, high, break_x, estimated: true })
+    let cross = if dn.abs() > 1e-12 {
+        10f64.powf((high.prefactor.log10() - low.prefactor.log10()) / dn)
+    } else {
+        f64::NAN
+    };
+    let break_x = if cross.is_finite() && cross >= xs[k - 1] && cross <= xs[k] {
+        cross
+    } else {
+        (xs[k - 1] * xs[k]).sqrt()
+    };
+    Ok(TwoRegimes {
+        low,
+        high,
+        break_x,
+        estimated: true,
+    })
 }
 
 #[cfg(test)]
@@ -221,10 +246,14 @@ mod tests {
     fn break_point_is_found() {
         // eq 4.6 shape: 1.67a below 2.7, 2.7a^(2/3) above, light noise.
         let a: Vec<f64> = (0..30).map(|i| 0.2 * 1.15f64.powi(i)).collect();
-        let y: Vec<f64> = a.iter().enumerate().map(|(i, &v)| {
-            let base = if v <= 2.7 { 1.67 * v } else { 2.7 * v.powf(2.0 / 3.0) };
-            base * (1.0 + 0.01 * ((i * 7919) % 13) as f64 / 13.0)
-        }).collect();
+        let y: Vec<f64> = a
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let base = if v <= 2.7 { 1.67 * v } else { 2.7 * v.powf(2.0 / 3.0) };
+                base * (1.0 + 0.01 * ((i * 7919) % 13) as f64 / 13.0)
+            })
+            .collect();
         let t = two_regimes(&a, &y, None).unwrap();
         assert!((t.low.exponent - 1.0).abs() < 0.03, "{t:?}");
         assert!((t.high.exponent - 2.0 / 3.0).abs() < 0.03, "{t:?}");

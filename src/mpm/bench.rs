@@ -44,7 +44,10 @@ impl BenchResult {
 /// `steps = None`, blocks of 100 steps until at least `min_s` seconds have been timed (a
 /// measurement under a second is too short to be stable on a shared machine).
 pub fn run(threads: usize, steps: Option<u64>, min_s: f64) -> BenchResult {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().expect("thread pool");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .expect("thread pool");
     pool.install(|| {
         let params = MpmParams::default();
         let mut col = column::build(&params, ColumnSpec::from_area(1.0, 0.01)).expect("bench column");
@@ -84,7 +87,10 @@ pub fn run(threads: usize, steps: Option<u64>, min_s: f64) -> BenchResult {
 /// `points` points (area = points / 4e6 m²), released, `steps` steps timed after 5 warm-up
 /// steps. Returns (points, seconds per step).
 pub fn scaling_point(points: usize, threads: usize, steps: u64) -> (usize, f64) {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().expect("thread pool");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .expect("thread pool");
     pool.install(|| {
         let params = MpmParams::default();
         let mut col = column::build(&params, ColumnSpec::from_area(1.0, points as Real / 4e6)).expect("scaling column");
@@ -97,6 +103,9 @@ pub fn scaling_point(points: usize, threads: usize, steps: u64) -> (usize, f64) 
         for _ in 0..steps {
             col.solver.step(&mut col.state, dt).expect("scaling step");
         }
-        (col.state.points.len(), clock.elapsed().as_secs_f64() / steps.max(1) as f64)
+        (
+            col.state.points.len(),
+            clock.elapsed().as_secs_f64() / steps.max(1) as f64,
+        )
     })
 }

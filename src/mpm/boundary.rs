@@ -59,7 +59,11 @@ pub fn constrain(walls: &[Wall], x: Vec2, m: Real, v0: Vec2, v: &mut Vec2, tol: 
         let (vn_star, vt_star) = (v[vn_idx], v[vt_idx]);
         v[vn_idx] = 0.0;
         let cap = wall.friction * dvn;
-        let vt_new = if vt_star.abs() <= cap { 0.0 } else { vt_star - cap * vt_star.signum() };
+        let vt_new = if vt_star.abs() <= cap {
+            0.0
+        } else {
+            vt_star - cap * vt_star.signum()
+        };
         v[vt_idx] = vt_new;
         // Dissipated = −(reaction impulse)·(mean velocity).
         w.normal -= m * (0.0 - vn_star) * 0.5 * (v0[vn_idx] + 0.0);
@@ -79,13 +83,31 @@ pub fn project(walls: &[Wall], x: Vec2, v: &mut Vec2, tol: Real) {
 /// unilateral.
 pub fn column_walls(mu: Real) -> Vec<Wall> {
     vec![
-        Wall { axis: Axis::X, at: 0.0, material_on_plus_side: true, friction: mu, bilateral: false },
-        Wall { axis: Axis::Y, at: 0.0, material_on_plus_side: true, friction: mu, bilateral: false },
+        Wall {
+            axis: Axis::X,
+            at: 0.0,
+            material_on_plus_side: true,
+            friction: mu,
+            bilateral: false,
+        },
+        Wall {
+            axis: Axis::Y,
+            at: 0.0,
+            material_on_plus_side: true,
+            friction: mu,
+            bilateral: false,
+        },
     ]
 }
 
 /// A frictionless roller gate at x = `at` (material on its left), used while the column is
 /// loaded geostatically.
 pub fn gate(at: Real) -> Wall {
-    Wall { axis: Axis::X, at, material_on_plus_side: false, friction: 0.0, bilateral: false }
+    Wall {
+        axis: Axis::X,
+        at,
+        material_on_plus_side: false,
+        friction: 0.0,
+        bilateral: false,
+    }
 }

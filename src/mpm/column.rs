@@ -92,7 +92,10 @@ pub fn build(params: &MpmParams, spec: ColumnSpec) -> Result<Column, MpmError> {
     let cells = (spec.l0 / h).round().max(1.0) as usize;
     let nx = cells * params.ppc_1d() as usize;
     let ny = ((spec.aspect() * cells as Real * h) / s).round().max(1.0) as usize;
-    let actual = ColumnSpec { l0: nx as Real * s, h0: ny as Real * s };
+    let actual = ColumnSpec {
+        l0: nx as Real * s,
+        h0: ny as Real * s,
+    };
     let pts = particles::rectangle(0.0, 0.0, nx, ny, s, params.material.density, 0);
     let x1 = actual.l0 * (1.0 + 3.0 * actual.runout_estimate()) + 8.0 * h;
     let y1 = 1.25 * actual.h0 + 4.0 * h;
@@ -100,7 +103,11 @@ pub fn build(params: &MpmParams, spec: ColumnSpec) -> Result<Column, MpmError> {
     let mut walls = boundary::column_walls(params.wall_friction);
     walls.push(boundary::gate(actual.l0));
     let solver = Solver::new(params, grid, walls)?;
-    Ok(Column { spec: actual, solver, state: State::new(pts) })
+    Ok(Column {
+        spec: actual,
+        solver,
+        state: State::new(pts),
+    })
 }
 
 /// The geostatic a = 1 column of fig4-04.
@@ -141,7 +148,9 @@ pub fn geostatic_column(params: &MpmParams, spec: ColumnSpec) -> Result<(Column,
 /// Remove the gate (instantaneous release).
 pub fn release(col: &mut Column) {
     let l0 = col.spec.l0;
-    col.solver.walls.retain(|w| !(w.axis == super::params::Axis::X && w.at == l0 && !w.material_on_plus_side));
+    col.solver
+        .walls
+        .retain(|w| !(w.axis == super::params::Axis::X && w.at == l0 && !w.material_on_plus_side));
 }
 
 /// fig4-04: the a = 1 column (default size, table 4.3 parameters) after the geostatic stage.
@@ -302,7 +311,15 @@ pub fn inertial_numbers(state: &State, m: &super::params::Material) -> Vec<Real>
     state
         .points
         .iter()
-        .map(|p| super::material::inertial_number(super::material::shear_rate(&p.grad_v), p.stress.pressure(), m.grain_diameter, m.grain_density, m.i_max))
+        .map(|p| {
+            super::material::inertial_number(
+                super::material::shear_rate(&p.grad_v),
+                p.stress.pressure(),
+                m.grain_diameter,
+                m.grain_density,
+                m.i_max,
+            )
+        })
         .collect()
 }
 
@@ -334,17 +351,25 @@ pub fn inertial_stats(state: &State, m: &super::params::Material, g: Real) -> In
         }
     }
     if flowing.is_empty() {
-        return InertialStats { max, stress_free_fraction: mfree / mass.max(1e-300), ..Default::default() };
+        return InertialStats {
+            max,
+            stress_free_fraction: mfree / mass.max(1e-300),
+            ..Default::default()
+        };
     }
     flowing.sort_by(|a, b| a.0.total_cmp(&b.0));
     let k = ((flowing.len() as Real * 0.95).ceil() as usize).clamp(1, flowing.len()) - 1;
     let median = crate::analysis::inertial::weighted_stats(flowing.clone(), 0.0).median;
     InertialStats {
-        mean_flowing: sum / mflow, p95_flowing: flowing[k].0, max, flowing_fraction: mflow / mass, stress_free_fraction: mfree / mass,
-        median_flowing: median, mean_flowing_deep: if mdeep > 0.0 { sdeep / mdeep } else { 0.0 },
+        mean_flowing: sum / mflow,
+        p95_flowing: flowing[k].0,
+        max,
+        flowing_fraction: mflow / mass,
+        stress_free_fraction: mfree / mass,
+        median_flowing: median,
+        mean_flowing_deep: if mdeep > 0.0 { sdeep / mdeep } else { 0.0 },
     }
 }
-
 
 /// Point fields at one time.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -378,7 +403,15 @@ pub struct Snapshot {
 impl Snapshot {
     /// The points as an analysis [`Cloud`] of half-size `lp`.
     pub fn cloud(&self, lp: Real) -> Cloud {
-        Cloud { t: self.t, x: self.x.clone(), y: self.y.clone(), half: vec![lp; self.x.len()], mass: self.mass.clone(), vx: self.vx.clone(), vy: self.vy.clone() }
+        Cloud {
+            t: self.t,
+            x: self.x.clone(),
+            y: self.y.clone(),
+            half: vec![lp; self.x.len()],
+            mass: self.mass.clone(),
+            vx: self.vx.clone(),
+            vy: self.vy.clone(),
+        }
     }
 }
 
@@ -459,7 +492,15 @@ pub fn front_of(state: &State, lp: Real, spacing: Real) -> Front {
         m.push(p.mass);
     }
     let half = vec![lp; n];
-    front(&Body { x: &x, y: &y, half: &half, mass: &m }, Link::Distance(1.5 * spacing))
+    front(
+        &Body {
+            x: &x,
+            y: &y,
+            half: &half,
+            mass: &m,
+        },
+        Link::Distance(1.5 * spacing),
+    )
 }
 
 /// Front of a state with an explicit linking rule, points as bodies of half-size `lp`.
@@ -472,7 +513,15 @@ pub fn front_linked(state: &State, lp: Real, link: Link) -> Front {
         m.push(p.mass);
     }
     let half = vec![lp; n];
-    front(&Body { x: &x, y: &y, half: &half, mass: &m }, link)
+    front(
+        &Body {
+            x: &x,
+            y: &y,
+            half: &half,
+            mass: &m,
+        },
+        link,
+    )
 }
 
 /// L for each edge gap of `gaps` [m], points as bodies of half-size `lp`.
@@ -485,7 +534,15 @@ pub fn lengths_linked(state: &State, lp: Real, gaps: &[Real]) -> Vec<Real> {
         m.push(p.mass);
     }
     let half = vec![lp; n];
-    lengths_for_gaps(&Body { x: &x, y: &y, half: &half, mass: &m }, gaps)
+    lengths_for_gaps(
+        &Body {
+            x: &x,
+            y: &y,
+            half: &half,
+            mass: &m,
+        },
+        gaps,
+    )
 }
 
 /// Front with links that follow the points' dilation: points i and j are linked when
@@ -494,14 +551,27 @@ pub fn lengths_linked(state: &State, lp: Real, gaps: &[Real]) -> Vec<Real> {
 /// point volumes still tile it. L and H are still max(x + l_p), max(y + l_p).
 pub fn front_of_dilated(state: &State, lp: Real, spacing: Real) -> Front {
     let n = state.points.len();
-    let (mut x, mut y, mut m, mut r) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    let (mut x, mut y, mut m, mut r) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
     for p in &state.points {
         x.push(p.x.x);
         y.push(p.x.y);
         m.push(p.mass);
         r.push(0.75 * spacing * p.j.max(1.0).sqrt());
     }
-    let idx = main_mass(&Body { x: &x, y: &y, half: &r, mass: &m }, Link::Contact { gap: 0.0 });
+    let idx = main_mass(
+        &Body {
+            x: &x,
+            y: &y,
+            half: &r,
+            mass: &m,
+        },
+        Link::Contact { gap: 0.0 },
+    );
     let total: Real = m.iter().sum();
     let (mut length, mut height, mut mm) = (0.0 as Real, 0.0 as Real, 0.0);
     for &i in &idx {
@@ -509,7 +579,12 @@ pub fn front_of_dilated(state: &State, lp: Real, spacing: Real) -> Front {
         height = height.max(y[i] + lp);
         mm += m[i];
     }
-    Front { length, height, n_main: idx.len(), mass_fraction: if total > 0.0 { mm / total } else { 0.0 } }
+    Front {
+        length,
+        height,
+        n_main: idx.len(),
+        mass_fraction: if total > 0.0 { mm / total } else { 0.0 },
+    }
 }
 
 /// x below which the fraction `q` of the points' mass lies [m].
@@ -559,7 +634,12 @@ pub fn collapse_with_progress(
 }
 
 /// Run an already-built (and possibly loaded) column after release.
-pub fn run_collapse(col: Column, geo: Option<GeostaticReport>, params: &MpmParams, opts: &CollapseOptions) -> Result<CollapseResult, MpmError> {
+pub fn run_collapse(
+    col: Column,
+    geo: Option<GeostaticReport>,
+    params: &MpmParams,
+    opts: &CollapseOptions,
+) -> Result<CollapseResult, MpmError> {
     run_collapse_with_progress(col, geo, params, opts, &mut |_, _| {})
 }
 
@@ -586,12 +666,20 @@ pub fn run_collapse_with_progress(
     let mat = params.material.clone();
     let d = mat.grain_diameter;
     let link = match (opts.link_grid, opts.link_gap) {
-        (true, _) => Link::SharedNode { h: params.cell_size, support: params.cell_size + lp },
+        (true, _) => Link::SharedNode {
+            h: params.cell_size,
+            support: params.cell_size + lp,
+        },
         (false, Some(k)) => Link::Contact { gap: k * d },
         (false, None) => Link::Distance(1.5 * s),
     };
     let gaps: Vec<Real> = opts.link_gap_sensitivity.iter().map(|k| k * d).collect();
-    let grain = Grain { cell: opts.inertial_cell * d, d, rho_s: mat.grain_density, g };
+    let grain = Grain {
+        cell: opts.inertial_cell * d,
+        d,
+        rho_s: mat.grain_density,
+        g,
+    };
     let mut gap_lengths: Vec<Vec<Real>> = Vec::new();
     let initial = snapshot_with(&col.state, &params.material);
     let mut record = |state: &State, series: &mut Vec<Sample>| -> Energies {
@@ -646,7 +734,8 @@ pub fn run_collapse_with_progress(
                     Verdict::Running => {}
                 }
             } else if col.state.t >= opts.min_time_tau * tau
-                && (e.kinetic_grid < opts.stop_ke_ratio * e0.potential || front_still(&series, opts, tau, e.kinetic_grid / e0.potential))
+                && (e.kinetic_grid < opts.stop_ke_ratio * e0.potential
+                    || front_still(&series, opts, tau, e.kinetic_grid / e0.potential))
             {
                 stopped = true;
                 break;
@@ -691,10 +780,17 @@ fn front_still(series: &[Sample], opts: &CollapseOptions, tau: Real, ke_ratio: R
         return false;
     }
     let t0 = last.t - opts.still_tau * tau;
-    series.iter().rev().take_while(|s| s.t >= t0).all(|s| (s.l - last.l).abs() < opts.still_tol && (s.h - last.h).abs() < opts.still_tol)
+    series
+        .iter()
+        .rev()
+        .take_while(|s| s.t >= t0)
+        .all(|s| (s.l - last.l).abs() < opts.still_tol && (s.h - last.h).abs() < opts.still_tol)
 }
 
 /// Points of a state as plain slices (for VTK output by the caller).
 pub fn positions(points: &[Point]) -> (Vec<Real>, Vec<Real>) {
-    (points.iter().map(|p| p.x.x).collect(), points.iter().map(|p| p.x.y).collect())
+    (
+        points.iter().map(|p| p.x.x).collect(),
+        points.iter().map(|p| p.x.y).collect(),
+    )
 }

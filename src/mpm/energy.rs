@@ -38,7 +38,13 @@ impl Energies {
     /// E_k + E_p + E_el + all dissipated work: constant up to numerical (grid-transfer)
     /// dissipation, which makes it decrease.
     pub fn total(&self) -> Real {
-        self.potential + self.kinetic + self.elastic + self.plastic_work + self.wall_friction + self.wall_normal + self.damping
+        self.potential
+            + self.kinetic
+            + self.elastic
+            + self.plastic_work
+            + self.wall_friction
+            + self.wall_normal
+            + self.damping
     }
 }
 

@@ -10,7 +10,9 @@ pub enum MpmError {
     #[error("invalid MPM parameters: {}", .0.iter().map(|i| format!("{} = {} (allowed: {})", i.key, i.value, i.allowed)).collect::<Vec<_>>().join("; "))]
     InvalidParams(Vec<crate::validate::Issue>),
     /// The requested time step exceeds the stable limit.
-    #[error("time step {dt:.3e} s exceeds the stable limit {limit:.3e} s ({reason}); use dt <= {limit:.3e} s or a CFL step")]
+    #[error(
+        "time step {dt:.3e} s exceeds the stable limit {limit:.3e} s ({reason}); use dt <= {limit:.3e} s or a CFL step"
+    )]
     StepTooLarge {
         /// Requested step [s].
         dt: Real,

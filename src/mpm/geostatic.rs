@@ -60,7 +60,11 @@ pub fn run(solver: &mut Solver, state: &mut State, height: Real) -> Result<Geost
             if t >= gp.max_time {
                 solver.damping = old_damping;
                 solver.flip = old_flip;
-                return Err(MpmError::GeostaticNotStationary { t, ratio, tol: gp.ke_tol });
+                return Err(MpmError::GeostaticNotStationary {
+                    t,
+                    ratio,
+                    tol: gp.ke_tol,
+                });
             }
         }
     }
@@ -97,6 +101,11 @@ pub fn reset_to_rest(state: &mut State) {
 pub fn k0_stress(points: &mut [Point], surface: Real, density: Real, g: Real, k0: Real) {
     for p in points {
         let syy = -density * g * (surface - p.x.y).max(0.0);
-        p.stress = Stress { xx: k0 * syy, yy: syy, xy: 0.0, zz: k0 * syy };
+        p.stress = Stress {
+            xx: k0 * syy,
+            yy: syy,
+            xy: 0.0,
+            zz: k0 * syy,
+        };
     }
 }

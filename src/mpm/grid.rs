@@ -47,7 +47,13 @@ impl Grid {
         let nx = nxc + 1 + 2 * ghost;
         let ny = nyc + 1 + 2 * ghost;
         let origin = Vec2::new(x0 - ghost as Real * h, y0 - ghost as Real * h);
-        Self { origin, h, nx, ny, nodes: vec![Node::default(); nx * ny] }
+        Self {
+            origin,
+            h,
+            nx,
+            ny,
+            nodes: vec![Node::default(); nx * ny],
+        }
     }
     /// Flat index of node (i, j).
     #[inline(always)]

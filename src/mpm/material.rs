@@ -37,18 +37,36 @@ impl Elastic {
     pub fn new(young: Real, poisson: Real) -> Self {
         let g = young / (2.0 * (1.0 + poisson));
         let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
-        Self { young, poisson, g, lambda, inv_young: 1.0 / young }
+        Self {
+            young,
+            poisson,
+            g,
+            lambda,
+            inv_young: 1.0 / young,
+        }
     }
     /// Moduli divided by the Jacobian `j` (density-scaled moduli, see `solver.rs`).
     #[inline(always)]
     pub fn scaled_by_jacobian(&self, j: Real) -> Self {
         let k = 1.0 / j;
-        Self { young: self.young * k, poisson: self.poisson, g: self.g * k, lambda: self.lambda * k, inv_young: self.inv_young * j }
+        Self {
+            young: self.young * k,
+            poisson: self.poisson,
+            g: self.g * k,
+            lambda: self.lambda * k,
+            inv_young: self.inv_young * j,
+        }
     }
     /// Moduli multiplied by `k` (ν unchanged).
     #[inline]
     pub fn scaled(&self, k: Real) -> Self {
-        Self { young: self.young * k, poisson: self.poisson, g: self.g * k, lambda: self.lambda * k, inv_young: self.inv_young / k }
+        Self {
+            young: self.young * k,
+            poisson: self.poisson,
+            g: self.g * k,
+            lambda: self.lambda * k,
+            inv_young: self.inv_young / k,
+        }
     }
     /// Elastic strain of a principal stress triple: ε_i = ((1+ν)σ_i − ν tr σ)/E.
     #[inline(always)]
@@ -71,7 +89,11 @@ impl Elastic {
     #[inline(always)]
     fn d_times(&self, n: [Real; 3]) -> [Real; 3] {
         let t = self.lambda * (n[0] + n[1] + n[2]);
-        [t + 2.0 * self.g * n[0], t + 2.0 * self.g * n[1], t + 2.0 * self.g * n[2]]
+        [
+            t + 2.0 * self.g * n[0],
+            t + 2.0 * self.g * n[1],
+            t + 2.0 * self.g * n[2],
+        ]
     }
 }
 
@@ -99,13 +121,24 @@ impl McSurface {
         let (p, s) = (phi_deg.to_radians(), psi_deg.to_radians());
         let sp = s.sin();
         let face_eq = (4.0 / 3.0 + 4.0 * sp * sp / 9.0).sqrt();
-        Self { sin_phi: p.sin(), cos_phi: p.cos(), sin_psi: sp, cohesion, tension_cutoff, face_eq }
+        Self {
+            sin_phi: p.sin(),
+            cos_phi: p.cos(),
+            sin_psi: sp,
+            cohesion,
+            tension_cutoff,
+            face_eq,
+        }
     }
     /// From a friction coefficient μ = tan φ (μ(I) models).
     #[inline(always)]
     pub fn with_mu(&self, mu: Real) -> Self {
         let r = 1.0 / (1.0 + mu * mu).sqrt();
-        Self { sin_phi: mu * r, cos_phi: r, ..*self }
+        Self {
+            sin_phi: mu * r,
+            cos_phi: r,
+            ..*self
+        }
     }
     /// Yield function of principal values sorted descending.
     #[inline(always)]
@@ -146,9 +179,15 @@ fn dot3(a: [Real; 3], b: [Real; 3]) -> Real {
 pub fn mohr_coulomb_return(trial: [Real; 3], el: &Elastic, mc: &McSurface) -> ([Real; 3], Region) {
     // Sort descending: o[k] is the input index of the k-th largest.
     let mut o = [0usize, 1, 2];
-    if trial[o[0]] < trial[o[1]] { o.swap(0, 1); }
-    if trial[o[1]] < trial[o[2]] { o.swap(1, 2); }
-    if trial[o[0]] < trial[o[1]] { o.swap(0, 1); }
+    if trial[o[0]] < trial[o[1]] {
+        o.swap(0, 1);
+    }
+    if trial[o[1]] < trial[o[2]] {
+        o.swap(1, 2);
+    }
+    if trial[o[0]] < trial[o[1]] {
+        o.swap(0, 1);
+    }
     let Returned { out, region, .. } = return_sorted([trial[o[0]], trial[o[1]], trial[o[2]]], el, mc);
     let mut res = [0.0; 3];
     for k in 0..3 {
@@ -196,8 +235,16 @@ fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> Returned {
     // Edge, a second plane active: σ2 overtook σ1 → edge σ1 = σ2, plane (2, 3); else σ2 fell
     // below σ3 → edge σ2 = σ3, plane (1, 2).
     let comp = face[1] > face[0];
-    let nf_b = [select(comp, 0.0, 1.0 + sf), select(comp, 1.0 + sf, -(1.0 - sf)), select(comp, -(1.0 - sf), 0.0)];
-    let ng_b = [select(comp, 0.0, 1.0 + sp), select(comp, 1.0 + sp, -(1.0 - sp)), select(comp, -(1.0 - sp), 0.0)];
+    let nf_b = [
+        select(comp, 0.0, 1.0 + sf),
+        select(comp, 1.0 + sf, -(1.0 - sf)),
+        select(comp, -(1.0 - sf), 0.0),
+    ];
+    let ng_b = [
+        select(comp, 0.0, 1.0 + sp),
+        select(comp, 1.0 + sp, -(1.0 - sp)),
+        select(comp, -(1.0 - sp), 0.0),
+    ];
     let fb = mc.yield_fn(select(comp, s[1], s[0]), select(comp, s[2], s[1]));
     let db = el.d_times(ng_b);
     let (a11, a12, a21, a22) = (dot3(nf_a, da), dot3(nf_a, db), dot3(nf_b, da), dot3(nf_b, db));
@@ -229,11 +276,21 @@ fn return_sorted(s: [Real; 3], el: &Elastic, mc: &McSurface) -> Returned {
     } else if on_face {
         Region::Face
     } else if edge_ok {
-        if comp { Region::EdgeCompression } else { Region::EdgeExtension }
+        if comp {
+            Region::EdgeCompression
+        } else {
+            Region::EdgeExtension
+        }
     } else {
         Region::Apex
     };
-    Returned { out, region, gam, unchanged: elastic & !tension, face: !elastic & on_face & !tension }
+    Returned {
+        out,
+        region,
+        gam,
+        unchanged: elastic & !tension,
+        face: !elastic & on_face & !tension,
+    }
 }
 
 /// Result of one point stress update.
@@ -271,7 +328,12 @@ pub fn elastic_trial(s: &Stress, l: &Mat2, dt: Real, el: &Elastic) -> Stress {
 pub fn mohr_coulomb(tr: Stress, el: &Elastic, mc: &McSurface) -> StressUpdate {
     let (elastic, r) = mc_elastic_test(&tr, mc);
     if elastic {
-        return StressUpdate { stress: tr, region: Region::Elastic, plastic_work: 0.0, d_eps_p: 0.0 };
+        return StressUpdate {
+            stress: tr,
+            region: Region::Elastic,
+            plastic_work: 0.0,
+            d_eps_p: 0.0,
+        };
     }
     mohr_coulomb_plastic(tr, el, mc, r)
 }
@@ -302,8 +364,18 @@ pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: 
     let z_top = z >= a;
     let z_mid = !z_top & (z >= b);
     let z_up = z_top | z_mid;
-    let st = [select(z_top, z, a), select(z_top, a, select(z_mid, z, b)), select(z_up, b, z)];
-    let Returned { out: so, region, gam, unchanged, face } = return_sorted(st, el, mc);
+    let st = [
+        select(z_top, z, a),
+        select(z_top, a, select(z_mid, z, b)),
+        select(z_up, b, z),
+    ];
+    let Returned {
+        out: so,
+        region,
+        gam,
+        unchanged,
+        face,
+    } = return_sorted(st, el, mc);
     // Plastic strain increment: on the face it is γ n_g exactly (no compliance, no sqrt);
     // elsewhere from the stress correction.
     let sp = mc.sin_psi;
@@ -315,7 +387,11 @@ pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: 
     let plastic_work = select(unchanged, 0.0, select(face, pw_face, pw_gen));
     let d_eps_p = select(unchanged, 0.0, select(face, ep_face, ep_gen));
     // Back to the (a, b, z) order and the in-plane frame (coaxial with the trial).
-    let s = [select(z_top, so[1], so[0]), select(z_up, so[2], so[1]), select(z_top, so[0], select(z_mid, so[1], so[2]))];
+    let s = [
+        select(z_top, so[1], so[0]),
+        select(z_up, so[2], so[1]),
+        select(z_top, so[0], select(z_mid, so[1], so[2])),
+    ];
     let ir = 1.0 / r;
     let pos = r > 0.0;
     let (c2, s2) = (select(pos, hd * ir, 1.0), select(pos, tr.xy * ir, 0.0));
@@ -327,7 +403,12 @@ pub(crate) fn mohr_coulomb_plastic(tr: Stress, el: &Elastic, mc: &McSurface, r: 
         xy: select(unchanged, tr.xy, rn * s2),
         zz: select(unchanged, tr.zz, s[2]),
     };
-    StressUpdate { stress, region, plastic_work, d_eps_p }
+    StressUpdate {
+        stress,
+        region,
+        plastic_work,
+        d_eps_p,
+    }
 }
 
 /// Shear rate γ̇ = √(2 D':D') of a plane-strain velocity gradient [1/s].
@@ -355,7 +436,11 @@ pub fn inertial_number(gamma_dot: Real, p: Real, d: Real, rho_s: Real, i_max: Re
 pub fn mu_of_i(model: &Model, i: Real) -> Option<Real> {
     match *model {
         Model::MuILinear { mu_min, b } => Some(mu_min + b * i),
-        Model::MuIJop { mu_s, mu_2, i0 } => Some(if i > 0.0 { mu_s + (mu_2 - mu_s) / (i0 / i + 1.0) } else { mu_s }),
+        Model::MuIJop { mu_s, mu_2, i0 } => Some(if i > 0.0 {
+            mu_s + (mu_2 - mu_s) / (i0 / i + 1.0)
+        } else {
+            mu_s
+        }),
         _ => None,
     }
 }

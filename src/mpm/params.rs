@@ -85,12 +85,19 @@ pub enum Model {
 impl Model {
     /// μ(I) with the chapter's values and μ_min = tan 22.2° (figures.md I6).
     pub fn mu_i_default() -> Self {
-        Model::MuILinear { mu_min: (22.2 as Real).to_radians().tan(), b: 1.0 }
+        Model::MuILinear {
+            mu_min: (22.2 as Real).to_radians().tan(),
+            b: 1.0,
+        }
     }
     /// Jop et al. form with μ_s = tan 22.2°.
     pub fn jop_default() -> Self {
         let mu_s = (22.2 as Real).to_radians().tan();
-        Model::MuIJop { mu_s, mu_2: mu_s + 0.2616, i0: 0.279 }
+        Model::MuIJop {
+            mu_s,
+            mu_2: mu_s + 0.2616,
+            i0: 0.279,
+        }
     }
 }
 
@@ -227,7 +234,13 @@ pub struct Geostatic {
 
 impl Default for Geostatic {
     fn default() -> Self {
-        Self { damping: 0.7, ke_tol: 1e-9, min_time: 0.02, max_time: 1.0, courant: 0.5 }
+        Self {
+            damping: 0.7,
+            ke_tol: 1e-9,
+            min_time: 0.02,
+            max_time: 1.0,
+            courant: 0.5,
+        }
     }
 }
 
@@ -284,7 +297,15 @@ impl MpmParams {
     /// A quick profile: 4 mm cells, 4 PPC, CFL step (Courant 0.5). Used by tests and the
     /// `quick` pipeline profile.
     pub fn quick() -> Self {
-        Self { cell_size: 4e-3, ppc: 4, step: StepRule::Cfl { courant: 0.5, dt_max: 1e-3 }, ..Self::default() }
+        Self {
+            cell_size: 4e-3,
+            ppc: 4,
+            step: StepRule::Cfl {
+                courant: 0.5,
+                dt_max: 1e-3,
+            },
+            ..Self::default()
+        }
     }
     /// Points per cell per direction (√PPC).
     pub fn ppc_1d(&self) -> u32 {
@@ -324,9 +345,27 @@ impl MpmParams {
             "in [0, friction_deg]",
         );
         c.plausible("material.cohesion_pa", m.cohesion_pa, 0.0, 1e9, "cohesion [Pa]");
-        c.plausible("material.tension_cutoff_pa", m.tension_cutoff_pa, 0.0, 1e9, "tension cut-off [Pa]");
-        c.plausible("material.grain_diameter", m.grain_diameter, 1e-6, 1.0, "grain diameter [m]");
-        c.plausible("material.grain_density", m.grain_density, 100.0, 2.5e4, "grain density [kg/m³]");
+        c.plausible(
+            "material.tension_cutoff_pa",
+            m.tension_cutoff_pa,
+            0.0,
+            1e9,
+            "tension cut-off [Pa]",
+        );
+        c.plausible(
+            "material.grain_diameter",
+            m.grain_diameter,
+            1e-6,
+            1.0,
+            "grain diameter [m]",
+        );
+        c.plausible(
+            "material.grain_density",
+            m.grain_density,
+            100.0,
+            2.5e4,
+            "grain density [kg/m³]",
+        );
         c.positive("material.i_max", m.i_max);
         match m.model {
             Model::MuILinear { mu_min, b } => {
@@ -342,7 +381,12 @@ impl MpmParams {
         }
         c.plausible("cell_size", self.cell_size, 1e-5, 10.0, "cell size [m]");
         let n = self.ppc_1d();
-        c.check(self.ppc >= 1 && n * n == self.ppc, "ppc", self.ppc, "a perfect square >= 1 (1, 4, 9, 16, 25, ...)");
+        c.check(
+            self.ppc >= 1 && n * n == self.ppc,
+            "ppc",
+            self.ppc,
+            "a perfect square >= 1 (1, 4, 9, 16, 25, ...)",
+        );
         c.in_closed("flip", self.flip, 0.0, 1.0);
         match self.step {
             StepRule::Fixed { dt } => c.positive("step.fixed.dt", dt),
@@ -357,7 +401,12 @@ impl MpmParams {
         c.in_closed("geostatic.damping", g.damping, 0.0, 1.0);
         c.positive("geostatic.ke_tol", g.ke_tol);
         c.non_negative("geostatic.min_time", g.min_time);
-        c.check(g.max_time.is_finite() && g.max_time > g.min_time, "geostatic.max_time", g.max_time, "> geostatic.min_time");
+        c.check(
+            g.max_time.is_finite() && g.max_time > g.min_time,
+            "geostatic.max_time",
+            g.max_time,
+            "> geostatic.min_time",
+        );
         c.in_open_closed("geostatic.courant", g.courant, 0.0, 1.0);
         c.positive("energy_rise_tol", self.energy_rise_tol);
         c.issues

@@ -8,7 +8,9 @@
 //! stress field is kept, velocities and plastic history reset.
 
 use crate::analysis::front::{Body, Link, front};
-use crate::analysis::pile::{Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, kinetic, sample_run, surface_at};
+use crate::analysis::pile::{
+    Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, kinetic, sample_run, surface_at,
+};
 use crate::dem::pile::PileRun;
 use crate::math::{Real, Vec2};
 use crate::mpm::boundary::column_walls;
@@ -24,7 +26,11 @@ use crate::mpm::solver::{Solver, State};
 pub fn seed_points(params: &MpmParams, profile: &[(Real, Real)], l0: Real) -> Vec<Point> {
     let s = params.spacing();
     let nx = (l0 / s).ceil() as usize;
-    let h_max = profile.iter().filter(|p| p.1.is_finite()).map(|p| p.1).fold(0.0, Real::max);
+    let h_max = profile
+        .iter()
+        .filter(|p| p.1.is_finite())
+        .map(|p| p.1)
+        .fold(0.0, Real::max);
     let ny = (h_max / s).ceil() as usize;
     let mut pts = Vec::new();
     for i in 0..nx {
@@ -33,7 +39,12 @@ pub fn seed_points(params: &MpmParams, profile: &[(Real, Real)], l0: Real) -> Ve
         for j in 0..ny {
             let y = (j as Real + 0.5) * s;
             if y < top {
-                pts.push(Point::new(pts.len() as u32, Vec2::new(x, y), s * s, params.material.density));
+                pts.push(Point::new(
+                    pts.len() as u32,
+                    Vec2::new(x, y),
+                    s * s,
+                    params.material.density,
+                ));
             }
         }
     }
@@ -46,7 +57,15 @@ pub fn front_of_points(points: &[Point], lp: Real, s: Real) -> crate::analysis::
     let y: Vec<Real> = points.iter().map(|p| p.x.y).collect();
     let m: Vec<Real> = points.iter().map(|p| p.mass).collect();
     let half = vec![lp; points.len()];
-    front(&Body { x: &x, y: &y, half: &half, mass: &m }, Link::Distance(1.5 * s))
+    front(
+        &Body {
+            x: &x,
+            y: &y,
+            half: &half,
+            mass: &m,
+        },
+        Link::Distance(1.5 * s),
+    )
 }
 
 /// Geometry and loading of an MPM pile.
@@ -62,7 +81,13 @@ pub struct MpmPileSpec {
 }
 
 impl Default for MpmPileSpec {
-    fn default() -> Self { MpmPileSpec { geostatic_friction_deg: 30.0, domain_length_l0: 8.0, domain_height_h0: 2.0 } }
+    fn default() -> Self {
+        MpmPileSpec {
+            geostatic_friction_deg: 30.0,
+            domain_length_l0: 8.0,
+            domain_height_h0: 2.0,
+        }
+    }
 }
 
 /// A loaded MPM pile at rest.
@@ -77,7 +102,12 @@ pub struct MpmPile {
 }
 
 /// Seed the points under `profile` and load them geostatically.
-pub fn load_pile(params: &MpmParams, spec: &MpmPileSpec, profile: &[(Real, Real)], l0: Real) -> Result<MpmPile, MpmError> {
+pub fn load_pile(
+    params: &MpmParams,
+    spec: &MpmPileSpec,
+    profile: &[(Real, Real)],
+    l0: Real,
+) -> Result<MpmPile, MpmError> {
     let pts = seed_points(params, profile, l0);
     if pts.is_empty() {
         return Err(MpmError::InvalidParams(vec![crate::validate::Issue {
@@ -87,19 +117,36 @@ pub fn load_pile(params: &MpmParams, spec: &MpmPileSpec, profile: &[(Real, Real)
         }]));
     }
     let h0 = pts.iter().map(|p| p.x.y).fold(0.0, Real::max) + params.spacing();
-    let grid = Grid::covering(0.0, 0.0, spec.domain_length_l0 * l0, spec.domain_height_h0 * h0 + 4.0 * params.cell_size, params.cell_size);
+    let grid = Grid::covering(
+        0.0,
+        0.0,
+        spec.domain_length_l0 * l0,
+        spec.domain_height_h0 * h0 + 4.0 * params.cell_size,
+        params.cell_size,
+    );
     let mut geo = params.clone();
     geo.material.friction_deg = spec.geostatic_friction_deg;
     let mut solver = Solver::new(&geo, grid.clone(), column_walls(params.wall_friction))?;
     let mut state = State::new(pts);
     let rep = crate::mpm::geostatic::run(&mut solver, &mut state, h0)?;
-    Ok(MpmPile { state, grid, geostatic_time: rep.time })
+    Ok(MpmPile {
+        state,
+        grid,
+        geostatic_time: rep.time,
+    })
 }
 
 /// Excite a loaded pile and run it until `stop`.
 /// `link`: largest centre distance [m] at which two points belong to the same mass (D01's
 /// MPM rule is 1.5 × the initial spacing; the stage passes 2 cells, the GIMP stencil).
-pub fn run_pile(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, stop: &StopRule, link: Real) -> Result<PileRun, MpmError> {
+pub fn run_pile(
+    pile: &MpmPile,
+    params: &MpmParams,
+    profile: Profile,
+    e0: Real,
+    stop: &StopRule,
+    link: Real,
+) -> Result<PileRun, MpmError> {
     run_pile_frames(pile, params, profile, e0, stop, link, &FrameTimes::default())
 }
 
@@ -119,7 +166,15 @@ pub fn point_frame(st: &State, lp: Real) -> Frame {
 
 /// [`run_pile`] taking frames at `frames` (times [s], at sample instants); the run does not
 /// stop before the last frame.
-pub fn run_pile_frames(pile: &MpmPile, params: &MpmParams, profile: Profile, e0: Real, stop: &StopRule, link: Real, frames: &FrameTimes) -> Result<PileRun, MpmError> {
+pub fn run_pile_frames(
+    pile: &MpmPile,
+    params: &MpmParams,
+    profile: Profile,
+    e0: Real,
+    stop: &StopRule,
+    link: Real,
+    frames: &FrameTimes,
+) -> Result<PileRun, MpmError> {
     let mut state = pile.state.clone();
     let lp = params.half_width();
     let y: Vec<Real> = state.points.iter().map(|p| p.x.y).collect();
@@ -136,7 +191,15 @@ pub fn run_pile_frames(pile: &MpmPile, params: &MpmParams, profile: Profile, e0:
     let rec = |st: &State| -> Sample {
         let e = energies(st, &el, g);
         let f = front_of_points(&st.points, lp, link / 1.5);
-        Sample { t: st.t, l: f.length, h: f.height, ek: e.kinetic_grid, ekx: e.kinetic_x, eky: e.kinetic_y, erot: 0.0 }
+        Sample {
+            t: st.t,
+            l: f.length,
+            h: f.height,
+            ek: e.kinetic_grid,
+            ekx: e.kinetic_x,
+            eky: e.kinetic_y,
+            erot: 0.0,
+        }
     };
     let dts = stop.dt_sample(g);
     let mut next = dts;
@@ -149,11 +212,34 @@ pub fn run_pile_frames(pile: &MpmPile, params: &MpmParams, profile: Profile, e0:
         Ok(())
     };
     let mut sv = (solver, state);
-    let run = sample_run(&mut sv, stop, frames, e0, g, |s| s.1.t, |s| rec(&s.1), |s| point_frame(&s.1, lp), advance)?;
+    let run = sample_run(
+        &mut sv,
+        stop,
+        frames,
+        e0,
+        g,
+        |s| s.1.t,
+        |s| rec(&s.1),
+        |s| point_frame(&s.1, lp),
+        advance,
+    )?;
     let state = sv.1;
     let l0 = run.samples[0].l;
-    let Sampled { samples, frames: shots, stopped } = run;
+    let Sampled {
+        samples,
+        frames: shots,
+        stopped,
+    } = run;
     let xs = state.points.iter().map(|p| p.x.x).collect();
     let ys = state.points.iter().map(|p| p.x.y).collect();
-    Ok(PileRun { samples, l0, e0, e0_check, stopped, steps: state.step, final_bodies: (xs, ys, vec![lp; state.points.len()]), frames: shots })
+    Ok(PileRun {
+        samples,
+        l0,
+        e0,
+        e0_check,
+        stopped,
+        steps: state.step,
+        final_bodies: (xs, ys, vec![lp; state.points.len()]),
+        frames: shots,
+    })
 }

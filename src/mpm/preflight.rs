@@ -61,20 +61,44 @@ pub fn preflight(params: &MpmParams, dt: Real, v_max: Real) -> Result<Report, Mp
     let h = params.cell_size;
     let cfl = h / (c_p + v_max);
     let mut rows = vec![
-        Row { name: "CFL, cell size: h/(c_p + v_max)".into(), limit: Some(cfl), hard: true },
-        Row { name: "CFL, point spacing: (h/sqrt(PPC))/(c_p + v_max)".into(), limit: Some(params.spacing() / (c_p + v_max)), hard: false },
+        Row {
+            name: "CFL, cell size: h/(c_p + v_max)".into(),
+            limit: Some(cfl),
+            hard: true,
+        },
+        Row {
+            name: "CFL, point spacing: (h/sqrt(PPC))/(c_p + v_max)".into(),
+            limit: Some(params.spacing() / (c_p + v_max)),
+            hard: false,
+        },
     ];
     let mu_row = match m.model {
-        Model::MuILinear { .. } | Model::MuIJop { .. } => "mu(I): friction updated explicitly in the return map, no viscous time scale",
+        Model::MuILinear { .. } | Model::MuIJop { .. } => {
+            "mu(I): friction updated explicitly in the return map, no viscous time scale"
+        }
         _ => "mu(I): not used",
     };
-    rows.push(Row { name: mu_row.into(), limit: None, hard: false });
     rows.push(Row {
-        name: format!("geostatic stage: runs at Courant {} of the CFL step", params.geostatic.courant),
+        name: mu_row.into(),
         limit: None,
         hard: false,
     });
-    let report = Report { dt, v_max, p_modulus: m.p_wave_modulus(), c_p, courant: dt * (c_p + v_max) / h, rows };
+    rows.push(Row {
+        name: format!(
+            "geostatic stage: runs at Courant {} of the CFL step",
+            params.geostatic.courant
+        ),
+        limit: None,
+        hard: false,
+    });
+    let report = Report {
+        dt,
+        v_max,
+        p_modulus: m.p_wave_modulus(),
+        c_p,
+        courant: dt * (c_p + v_max) / h,
+        rows,
+    };
     if dt.is_nan() || dt <= 0.0 || dt > cfl {
         return Err(MpmError::StepTooLarge {
             dt,
@@ -87,14 +111,32 @@ pub fn preflight(params: &MpmParams, dt: Real, v_max: Real) -> Result<Report, Mp
 
 impl fmt::Display for Report {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(f, "MPM stability pre-flight: dt = {:.3e} s, v_max = {:.2} m/s", self.dt, self.v_max)?;
-        writeln!(f, "  P-wave modulus M = {:.4e} Pa, c_p = {:.2} m/s, Courant number = {:.4}", self.p_modulus, self.c_p, self.courant)?;
-        writeln!(f, "  {:<78} {:>12} {:>10} {:>6}", "time scale", "limit [s]", "dt/limit", "status")?;
+        writeln!(
+            f,
+            "MPM stability pre-flight: dt = {:.3e} s, v_max = {:.2} m/s",
+            self.dt, self.v_max
+        )?;
+        writeln!(
+            f,
+            "  P-wave modulus M = {:.4e} Pa, c_p = {:.2} m/s, Courant number = {:.4}",
+            self.p_modulus, self.c_p, self.courant
+        )?;
+        writeln!(
+            f,
+            "  {:<78} {:>12} {:>10} {:>6}",
+            "time scale", "limit [s]", "dt/limit", "status"
+        )?;
         for r in &self.rows {
             match r.limit {
                 Some(l) => {
                     let ratio = self.dt / l;
-                    let status = if ratio <= 1.0 { "ok" } else if r.hard { "FAIL" } else { "warn" };
+                    let status = if ratio <= 1.0 {
+                        "ok"
+                    } else if r.hard {
+                        "FAIL"
+                    } else {
+                        "warn"
+                    };
                     writeln!(f, "  {:<78} {:>12.3e} {:>10.4} {:>6}", r.name, l, ratio, status)?;
                 }
                 None => writeln!(f, "  {:<78} {:>12} {:>10} {:>6}", r.name, "-", "-", "ok")?,
@@ -114,7 +156,11 @@ pub fn containment(params: &MpmParams, spec: crate::mpm::column::ColumnSpec) -> 
     let h = params.cell_size;
     let x1 = spec.l0 * (1.0 + 3.0 * spec.runout_estimate()) + 8.0 * h;
     let mu = params.wall_friction;
-    let reach = if mu > 0.0 { spec.l0 + spec.h0 / (2.0 * mu) } else { Real::INFINITY };
+    let reach = if mu > 0.0 {
+        spec.l0 + spec.h0 / (2.0 * mu)
+    } else {
+        Real::INFINITY
+    };
     if reach <= x1 {
         return Ok(());
     }

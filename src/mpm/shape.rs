@@ -75,7 +75,14 @@ impl Stencil {
         let j0 = first_node(uy, l);
         let (wx, dx) = axis(ux - i0 as Real, l, inv_h);
         let (wy, dy) = axis(uy - j0 as Real, l, inv_h);
-        Stencil { i0: i0.max(0) as usize, j0: j0.max(0) as usize, wx, wy, dx, dy }
+        Stencil {
+            i0: i0.max(0) as usize,
+            j0: j0.max(0) as usize,
+            wx,
+            wy,
+            dx,
+            dy,
+        }
     }
 }
 
@@ -90,7 +97,14 @@ impl Stencil {
         let ty = (y - oy) * inv_h - base[1] as Real;
         let (wx, dx) = axis(tx, l, inv_h);
         let (wy, dy) = axis(ty, l, inv_h);
-        Stencil { i0: base[0] as usize, j0: base[1] as usize, wx, wy, dx, dy }
+        Stencil {
+            i0: base[0] as usize,
+            j0: base[1] as usize,
+            wx,
+            wy,
+            dx,
+            dy,
+        }
     }
 }
 
@@ -130,8 +144,19 @@ mod tests {
     fn partition_of_unity_and_zero_gradient_sum_for_gimp_and_linear() {
         let h = 2e-3;
         let (ox, oy) = (-0.01, 0.003);
-        for (shape, ppc) in [(Shape::Gimp, 1), (Shape::Gimp, 4), (Shape::Gimp, 16), (Shape::Linear, 4), (Shape::Linear, 16)] {
-            let p = MpmParams { shape, ppc, cell_size: h, ..MpmParams::default() };
+        for (shape, ppc) in [
+            (Shape::Gimp, 1),
+            (Shape::Gimp, 4),
+            (Shape::Gimp, 16),
+            (Shape::Linear, 4),
+            (Shape::Linear, 16),
+        ] {
+            let p = MpmParams {
+                shape,
+                ppc,
+                cell_size: h,
+                ..MpmParams::default()
+            };
             let lp = p.shape_half_width();
             match shape {
                 Shape::Gimp => assert_eq!(lp, h / (2.0 * (ppc as Real).sqrt())),
@@ -146,9 +171,18 @@ mod tests {
                     let sw: Real = st.wx.iter().sum::<Real>() * st.wy.iter().sum::<Real>();
                     assert!((sw - 1.0).abs() < 1e-12, "{shape:?} ppc {ppc} u = {ux}: Σφ = {sw}");
                     // Σ_i ∇φ_i = Σ_ij (dx_i wy_j, wx_i dy_j) = 0
-                    let gx: Real = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| st.dx[i] * st.wy[j]).sum();
-                    let gy: Real = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| st.wx[i] * st.dy[j]).sum();
-                    assert!(gx.abs() * h < 1e-12 && gy.abs() * h < 1e-12, "{shape:?} ppc {ppc} u = {ux}: Σ∇φ = ({gx}, {gy})");
+                    let gx: Real = (0..3)
+                        .flat_map(|i| (0..3).map(move |j| (i, j)))
+                        .map(|(i, j)| st.dx[i] * st.wy[j])
+                        .sum();
+                    let gy: Real = (0..3)
+                        .flat_map(|i| (0..3).map(move |j| (i, j)))
+                        .map(|(i, j)| st.wx[i] * st.dy[j])
+                        .sum();
+                    assert!(
+                        gx.abs() * h < 1e-12 && gy.abs() * h < 1e-12,
+                        "{shape:?} ppc {ppc} u = {ux}: Σ∇φ = ({gx}, {gy})"
+                    );
                     // every node's weight (and away from nodes its derivative) is the 1D
                     // function itself; nodes outside the stencil carry no weight
                     for n in -1..6isize {
@@ -158,21 +192,42 @@ mod tests {
                         let k = n - 1;
                         if (0..3).contains(&k) {
                             let k = k as usize;
-                            assert!((st.wx[k] - w).abs() < 1e-12, "{shape:?} ppc {ppc} u = {ux} node {k}: {} vs {w}", st.wx[k]);
+                            assert!(
+                                (st.wx[k] - w).abs() < 1e-12,
+                                "{shape:?} ppc {ppc} u = {ux} node {k}: {} vs {w}",
+                                st.wx[k]
+                            );
                             if (r / h - (r / h).round()).abs() > 1e-6 {
-                                assert!((st.dx[k] - d).abs() * h < 1e-9, "{shape:?} ppc {ppc} u = {ux} node {k}: {} vs {d}", st.dx[k]);
+                                assert!(
+                                    (st.dx[k] - d).abs() * h < 1e-9,
+                                    "{shape:?} ppc {ppc} u = {ux} node {k}: {} vs {d}",
+                                    st.dx[k]
+                                );
                             }
                             assert!(st.wx[k] >= -1e-15, "negative weight");
                         } else {
-                            assert_eq!(w, 0.0, "{shape:?} ppc {ppc} u = {ux}: node {node} outside the stencil has weight {w}");
+                            assert_eq!(
+                                w, 0.0,
+                                "{shape:?} ppc {ppc} u = {ux}: node {node} outside the stencil has weight {w}"
+                            );
                         }
                     }
                     if shape == Shape::Linear {
                         // the linear hat: two nodes, φ = 1 − |r|/h, dφ/dx = ∓1/h
                         let t = ux - ux.floor();
                         assert_eq!(st.i0 as isize, ux.floor() as isize, "u = {ux}");
-                        assert!((st.wx[0] - (1.0 - t)).abs() < 1e-12 && (st.wx[1] - t).abs() < 1e-12 && st.wx[2] == 0.0, "u = {ux}: {:?}", st.wx);
-                        assert!((st.dx[0] + 1.0 / h).abs() * h < 1e-12 && (st.dx[1] - 1.0 / h).abs() * h < 1e-12 && st.dx[2] == 0.0, "u = {ux}: {:?}", st.dx);
+                        assert!(
+                            (st.wx[0] - (1.0 - t)).abs() < 1e-12 && (st.wx[1] - t).abs() < 1e-12 && st.wx[2] == 0.0,
+                            "u = {ux}: {:?}",
+                            st.wx
+                        );
+                        assert!(
+                            (st.dx[0] + 1.0 / h).abs() * h < 1e-12
+                                && (st.dx[1] - 1.0 / h).abs() * h < 1e-12
+                                && st.dx[2] == 0.0,
+                            "u = {ux}: {:?}",
+                            st.dx
+                        );
                     }
                 }
             }

@@ -87,7 +87,13 @@ pub struct State {
 impl State {
     /// A state at t = 0.
     pub fn new(points: Vec<Point>) -> Self {
-        Self { points, t: 0.0, step: 0, ledger: Ledger::default(), last_dt: 0.0 }
+        Self {
+            points,
+            t: 0.0,
+            step: 0,
+            ledger: Ledger::default(),
+            last_dt: 0.0,
+        }
     }
 }
 
@@ -299,7 +305,10 @@ impl Solver {
     }
 
     fn reset_grid(&mut self) {
-        self.grid.nodes.par_chunks_mut(4096).for_each(|c| c.fill(Default::default()));
+        self.grid
+            .nodes
+            .par_chunks_mut(4096)
+            .for_each(|c| c.fill(Default::default()));
     }
 
     /// Scatter onto the grid in the deterministic band order. `full`: mass, momentum and
@@ -340,7 +349,11 @@ impl Solver {
             let min = if r == 1 { (prev + 1) | 1 } else { prev + 2 };
             let c = start.partition_point(|&s| (s as usize) <= target).saturating_sub(1) | 1;
             let dist = |m: usize| (start[m.min(nb)] as usize).abs_diff(target);
-            let m = if c >= min + 2 && dist(c - 2) < dist(c) { c - 2 } else { c.max(min) };
+            let m = if c >= min + 2 && dist(c - 2) < dist(c) {
+                c - 2
+            } else {
+                c.max(min)
+            };
             if m > b_hi {
                 break;
             }
@@ -364,7 +377,9 @@ impl Solver {
             // range that runs it goes on with bands ≤ s − 2 or ≥ s + 2.
             let chunk = unsafe { std::slice::from_raw_parts_mut(nodes.get().add(first), last - first) };
             let band_runs = &runs[run_start[b] as usize..run_start[b + 1] as usize];
-            let idx = band_runs.iter().flat_map(|r| r.start as usize..(r.start + r.len) as usize);
+            let idx = band_runs
+                .iter()
+                .flat_map(|r| r.start as usize..(r.start + r.len) as usize);
             geo.scatter::<FULL>(chunk, b * BAND, points, idx, g);
         };
         let arrive = |s: usize| arrivals[s].fetch_add(1, Ordering::AcqRel) == 1;
@@ -392,7 +407,14 @@ impl Solver {
 
     fn geom(&self) -> Geom {
         let (ox, oy, h, ny) = (self.grid.origin.x, self.grid.origin.y, self.grid.h, self.grid.ny);
-        Geom { ox, oy, h, lp: self.lp, ny, simd: self.simd }
+        Geom {
+            ox,
+            oy,
+            h,
+            lp: self.lp,
+            ny,
+            simd: self.simd,
+        }
     }
 
     /// Nodal velocity update with damping and wall constraints; books wall work. Clears p and
@@ -460,7 +482,9 @@ impl Solver {
     fn g2p(&mut self, points: &mut [Point], dt: Real) {
         let (geo, flip) = (self.geom(), self.flip);
         let nodes = &self.grid.nodes;
-        points.par_chunks_mut(1024).for_each(|chunk| geo.gather::<true, false>(chunk, nodes, flip, dt));
+        points
+            .par_chunks_mut(1024)
+            .for_each(|chunk| geo.gather::<true, false>(chunk, nodes, flip, dt));
     }
 
     /// MUSL: map the updated point momenta back to the grid and constrain them.
@@ -502,7 +526,15 @@ impl Solver {
             flip: self.flip,
             dt,
             el: self.elastic,
-            frictional: stress_block::Consts::new(dt, self.elastic, self.surface, &m.model, m.grain_diameter, m.grain_density, m.i_max),
+            frictional: stress_block::Consts::new(
+                dt,
+                self.elastic,
+                self.surface,
+                &m.model,
+                m.grain_diameter,
+                m.grain_density,
+                m.i_max,
+            ),
         }
     }
 
@@ -645,7 +677,11 @@ fn key_runs(keys: &[u32], first: usize, out: &mut [Run]) -> u32 {
         while e < keys.len() && keys[e] == k {
             e += 1;
         }
-        out[n] = Run { start: (first + i) as u32, len: (e - i) as u32, key: k };
+        out[n] = Run {
+            start: (first + i) as u32,
+            len: (e - i) as u32,
+            key: k,
+        };
         n += 1;
         i = e;
     }

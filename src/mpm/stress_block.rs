@@ -15,9 +15,9 @@
 //! random points for every model and surface option.
 
 use super::material::{self, Elastic, McSurface};
-use super::particles::Stress;
 use super::params::Model;
 use super::particles::Point;
+use super::particles::Stress;
 use crate::math::{Mat2, Real, select};
 
 /// Points per block (lanes of the loop).
@@ -39,10 +39,26 @@ pub(crate) struct Consts {
 
 impl Consts {
     /// Constants of the update of a frictional `model`; `None` for the elastic model.
-    pub(crate) fn new(dt: Real, el: Elastic, mc: McSurface, model: &Model, d: Real, rho_s: Real, i_max: Real) -> Option<Self> {
+    pub(crate) fn new(
+        dt: Real,
+        el: Elastic,
+        mc: McSurface,
+        model: &Model,
+        d: Real,
+        rho_s: Real,
+        i_max: Real,
+    ) -> Option<Self> {
         match model {
             Model::Elastic => None,
-            _ => Some(Self { dt, el, mc, model: *model, d, rho_s, i_max }),
+            _ => Some(Self {
+                dt,
+                el,
+                mc,
+                model: *model,
+                d,
+                rho_s,
+                i_max,
+            }),
         }
     }
 }
@@ -66,7 +82,17 @@ impl Default for Lanes {
     fn default() -> Self {
         // Unused lanes of a short block hold a point at rest with J = 1 (finite throughout).
         let (z, one) = ([0.0; LANES], [1.0; LANES]);
-        Self { j: one, vol0: one, l: [z; 4], s: [z; 4], eps_p: z, work_p: z, vol: z, mu: z, inertial: z }
+        Self {
+            j: one,
+            vol0: one,
+            l: [z; 4],
+            s: [z; 4],
+            eps_p: z,
+            work_p: z,
+            vol: z,
+            mu: z,
+            inertial: z,
+        }
     }
 }
 
@@ -175,7 +201,12 @@ fn run_lanes(b: &mut Lanes, k: &Consts) {
 fn lane<const F: u8>(b: &mut Lanes, i: usize, k: &Consts) {
     let dt = k.dt;
     let l = Mat2::new(b.l[0][i], b.l[1][i], b.l[2][i], b.l[3][i]);
-    let s = Stress { xx: b.s[0][i], yy: b.s[1][i], xy: b.s[2][i], zz: b.s[3][i] };
+    let s = Stress {
+        xx: b.s[0][i],
+        yy: b.s[1][i],
+        xy: b.s[2][i],
+        zz: b.s[3][i],
+    };
     // Kinematics: J ← J det(I + Δt L), V = V_0 J, moduli scaled by 1/J.
     let j = b.j[i] * (Mat2::identity() + l * dt).determinant();
     b.j[i] = j;
@@ -262,10 +293,21 @@ mod tests {
     }
 
     fn bits(p: &Point) -> Vec<u64> {
-        [p.j, p.vol, p.stress.xx, p.stress.yy, p.stress.xy, p.stress.zz, p.eps_p, p.work_p, p.mu, p.inertial]
-            .iter()
-            .map(|v| v.to_bits())
-            .collect()
+        [
+            p.j,
+            p.vol,
+            p.stress.xx,
+            p.stress.yy,
+            p.stress.xy,
+            p.stress.zz,
+            p.eps_p,
+            p.work_p,
+            p.mu,
+            p.inertial,
+        ]
+        .iter()
+        .map(|v| v.to_bits())
+        .collect()
     }
 
     #[test]
@@ -275,7 +317,11 @@ mod tests {
         let models = [
             Model::MohrCoulomb,
             Model::MuILinear { mu_min: 0.4, b: 1.0 },
-            Model::MuIJop { mu_s: 0.38, mu_2: 0.64, i0: 0.279 },
+            Model::MuIJop {
+                mu_s: 0.38,
+                mu_2: 0.64,
+                i0: 0.279,
+            },
         ];
         let surfaces = [
             McSurface::from_degrees(30.0, 0.0, 0.0, 0.0),
@@ -336,8 +382,18 @@ mod tests {
             }
         }
         // the random set exercises every region of the return
-        for r in [Region::Elastic, Region::Face, Region::EdgeCompression, Region::EdgeExtension, Region::Apex, Region::Tension] {
-            assert!(regions.get(&format!("{r:?}")).copied().unwrap_or(0) >= 100, "{r:?} rarely reached: {regions:?}");
+        for r in [
+            Region::Elastic,
+            Region::Face,
+            Region::EdgeCompression,
+            Region::EdgeExtension,
+            Region::Apex,
+            Region::Tension,
+        ] {
+            assert!(
+                regions.get(&format!("{r:?}")).copied().unwrap_or(0) >= 100,
+                "{r:?} rarely reached: {regions:?}"
+            );
         }
     }
 }

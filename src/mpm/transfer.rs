@@ -45,7 +45,14 @@ impl Geom {
 
     /// Scatter the points `idx` (in that order) onto `chunk`, the node columns from `col0` on.
     /// `FULL`: mass, momentum, internal force −V σ ∇φ and gravity `g`; otherwise momentum only.
-    pub fn scatter<const FULL: bool>(&self, chunk: &mut [Node], col0: usize, points: &[Point], idx: impl Iterator<Item = usize>, g: Real) {
+    pub fn scatter<const FULL: bool>(
+        &self,
+        chunk: &mut [Node],
+        col0: usize,
+        points: &[Point],
+        idx: impl Iterator<Item = usize>,
+        g: Real,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if self.simd {
             // SAFETY: `simd` is only set when the CPU has AVX2 (`simd_available`).
@@ -82,7 +89,13 @@ impl Geom {
     /// Gather at every point of `points`. `VEL`: FLIP/PIC velocity update with fraction
     /// `flip` and the step displacement Δx = Δt Σ φ v*; `GRAD`: the velocity gradient
     /// L = Σ v* ⊗ ∇φ.
-    pub fn gather<const VEL: bool, const GRAD: bool>(&self, points: &mut [Point], nodes: &[Node], flip: Real, dt: Real) {
+    pub fn gather<const VEL: bool, const GRAD: bool>(
+        &self,
+        points: &mut [Point],
+        nodes: &[Node],
+        flip: Real,
+        dt: Real,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if self.simd {
             // SAFETY: `simd` is only set when the CPU has AVX2 (`simd_available`).
@@ -146,7 +159,14 @@ mod avx2 {
     /// Lanes: [p.x, p.y, f.x, f.y] += [mv.x w, mv.y w, vxx gx + vxy gy, (vxy gx + vyy gy) + w mg],
     /// m += w m; the products and sums of the scalar code, each in its order.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn scatter<const FULL: bool>(geo: &Geom, chunk: &mut [Node], col0: usize, points: &[Point], idx: impl Iterator<Item = usize>, g: Real) {
+    pub(super) unsafe fn scatter<const FULL: bool>(
+        geo: &Geom,
+        chunk: &mut [Node],
+        col0: usize,
+        points: &[Point],
+        idx: impl Iterator<Item = usize>,
+        g: Real,
+    ) {
         let ny = geo.ny;
         for pi in idx {
             let p = &points[pi];
@@ -158,8 +178,16 @@ mod avx2 {
             let q = _mm256_setr_pd(mv.x, mv.y, vxx, vxy);
             let s = _mm256_setr_pd(0.0, 0.0, vxy, vyy);
             let mgv = _mm256_setr_pd(0.0, 0.0, 0.0, mg);
-            let wy = [_mm256_set1_pd(st.wy[0]), _mm256_set1_pd(st.wy[1]), _mm256_set1_pd(st.wy[2])];
-            let dy = [_mm256_set1_pd(st.dy[0]), _mm256_set1_pd(st.dy[1]), _mm256_set1_pd(st.dy[2])];
+            let wy = [
+                _mm256_set1_pd(st.wy[0]),
+                _mm256_set1_pd(st.wy[1]),
+                _mm256_set1_pd(st.wy[2]),
+            ];
+            let dy = [
+                _mm256_set1_pd(st.dy[0]),
+                _mm256_set1_pd(st.dy[1]),
+                _mm256_set1_pd(st.dy[2]),
+            ];
             // One bounds check for the whole 3 × 3 stencil (columns ny nodes apart).
             let base = (st.i0 - col0) * ny + st.j0;
             assert!(base + 2 * ny + 3 <= chunk.len(), "stencil outside the band's nodes");
@@ -198,11 +226,21 @@ mod avx2 {
     /// Lanes: [vg.x, vg.y, Δv.x, Δv.y] += [v.x, v.y, Δv.x, Δv.y] w and
     /// [L00, L01, L10, L11] += [v.x, v.x, v.y, v.y] [gx, gy, gx, gy].
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn gather<const VEL: bool, const GRAD: bool>(geo: &Geom, points: &mut [Point], nodes: &[Node], flip: Real, dt: Real) {
+    pub(super) unsafe fn gather<const VEL: bool, const GRAD: bool>(
+        geo: &Geom,
+        points: &mut [Point],
+        nodes: &[Node],
+        flip: Real,
+        dt: Real,
+    ) {
         let ny = geo.ny;
         for p in points {
             let st = geo.stencil(p);
-            let wy = [_mm256_set1_pd(st.wy[0]), _mm256_set1_pd(st.wy[1]), _mm256_set1_pd(st.wy[2])];
+            let wy = [
+                _mm256_set1_pd(st.wy[0]),
+                _mm256_set1_pd(st.wy[1]),
+                _mm256_set1_pd(st.wy[2]),
+            ];
             let yd = [
                 _mm256_setr_pd(st.wy[0], st.dy[0], st.wy[0], st.dy[0]),
                 _mm256_setr_pd(st.wy[1], st.dy[1], st.wy[1], st.dy[1]),
@@ -239,7 +277,14 @@ mod avx2 {
                 _mm256_storeu_pd(s.as_mut_ptr(), acc);
                 _mm256_storeu_pd(l.as_mut_ptr(), lacc);
             }
-            finish::<VEL, GRAD>(p, Vec2::new(s[0], s[1]), Vec2::new(s[2], s[3]), Mat2::new(l[0], l[1], l[2], l[3]), flip, dt);
+            finish::<VEL, GRAD>(
+                p,
+                Vec2::new(s[0], s[1]),
+                Vec2::new(s[2], s[3]),
+                Mat2::new(l[0], l[1], l[2], l[3]),
+                flip,
+                dt,
+            );
         }
     }
 }
@@ -265,11 +310,21 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let (h, ny, nx) = (2e-3, 12usize, 12usize);
         for lp in [h / 8.0, h / 4.0, 0.0] {
-            let scalar = Geom { ox: -0.004, oy: 0.001, h, lp, ny, simd: false };
+            let scalar = Geom {
+                ox: -0.004,
+                oy: 0.001,
+                h,
+                lp,
+                ny,
+                simd: false,
+            };
             let simd = Geom { simd: true, ..scalar };
             let mut pts: Vec<Point> = (0..300)
                 .map(|i| {
-                    let x = Vec2::new(scalar.ox + h * (2.0 + 7.0 * rng.random::<Real>()), scalar.oy + h * (2.0 + 7.0 * rng.random::<Real>()));
+                    let x = Vec2::new(
+                        scalar.ox + h * (2.0 + 7.0 * rng.random::<Real>()),
+                        scalar.oy + h * (2.0 + 7.0 * rng.random::<Real>()),
+                    );
                     let mut p = Point::new(i, x, 0.25 * h * h, 2500.0);
                     let mut r = |k: u32| match (i + k) % 5 {
                         0 => 0.0,
@@ -299,8 +354,16 @@ mod tests {
                         geo.scatter::<false>(grid, 0, &pts, idx.iter().copied(), 9.81);
                     }
                 }
-                let flat = |g: &[Node]| g.iter().flat_map(|n| [n.m, n.p.x, n.p.y, n.f.x, n.f.y]).collect::<Vec<_>>();
-                assert_eq!(bits(&flat(&grids[0])), bits(&flat(&grids[1])), "scatter, lp {lp}, full {full}");
+                let flat = |g: &[Node]| {
+                    g.iter()
+                        .flat_map(|n| [n.m, n.p.x, n.p.y, n.f.x, n.f.y])
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(
+                    bits(&flat(&grids[0])),
+                    bits(&flat(&grids[1])),
+                    "scatter, lp {lp}, full {full}"
+                );
                 assert!(grids[0].iter().any(|n| n.f.y != 0.0) == full);
             }
             let mut nodes = vec![Node::default(); nx * ny];
@@ -319,7 +382,20 @@ mod tests {
                 run(scalar, &mut a, mode);
                 run(simd, &mut b, mode);
                 let flat = |ps: &[Point]| {
-                    ps.iter().flat_map(|p| [p.v.x, p.v.y, p.dx.x, p.dx.y, p.grad_v[(0, 0)], p.grad_v[(0, 1)], p.grad_v[(1, 0)], p.grad_v[(1, 1)]]).collect::<Vec<_>>()
+                    ps.iter()
+                        .flat_map(|p| {
+                            [
+                                p.v.x,
+                                p.v.y,
+                                p.dx.x,
+                                p.dx.y,
+                                p.grad_v[(0, 0)],
+                                p.grad_v[(0, 1)],
+                                p.grad_v[(1, 0)],
+                                p.grad_v[(1, 1)],
+                            ]
+                        })
+                        .collect::<Vec<_>>()
                 };
                 assert_eq!(bits(&flat(&a)), bits(&flat(&b)), "gather, lp {lp}, mode {mode}");
                 assert_ne!(flat(&a), flat(&pts), "gather changed nothing");

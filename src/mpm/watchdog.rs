@@ -27,14 +27,27 @@ pub fn check_points(points: &[Point], grid: &Grid, lp: Real, step: u64, t: Real)
     if let Some(i) = points.par_iter().position_first(bad) {
         let p = &points[i];
         let finite = p.x.iter().chain(p.v.iter()).all(|v| v.is_finite())
-            && [p.stress.xx, p.stress.yy, p.stress.xy, p.stress.zz].iter().all(|v| v.is_finite());
+            && [p.stress.xx, p.stress.yy, p.stress.xy, p.stress.zz]
+                .iter()
+                .all(|v| v.is_finite());
         if !finite {
             return Err(MpmError::NonFinite { step, t, point: p.id });
         }
         if p.vol.is_nan() || p.vol <= 0.0 {
-            return Err(MpmError::JacobianNonPositive { step, t, point: p.id, j: p.j });
+            return Err(MpmError::JacobianNonPositive {
+                step,
+                t,
+                point: p.id,
+                j: p.j,
+            });
         }
-        return Err(MpmError::LeftGrid { step, t, point: p.id, x: p.x.x, y: p.x.y });
+        return Err(MpmError::LeftGrid {
+            step,
+            t,
+            point: p.id,
+            x: p.x.x,
+            y: p.x.y,
+        });
     }
     Ok(())
 }
@@ -51,7 +64,10 @@ pub struct EnergyWatch {
 impl EnergyWatch {
     /// Start watching from `e`; allowed rise = `frac` × E_p(0) (E_p measured from the base).
     pub fn new(e: &Energies, frac: Real) -> Self {
-        Self { e0: e.total(), tol: frac * e.potential.abs().max(1e-300) }
+        Self {
+            e0: e.total(),
+            tol: frac * e.potential.abs().max(1e-300),
+        }
     }
     /// Check a later sample.
     pub fn check(&self, e: &Energies, points: &[Point], step: u64, t: Real) -> Result<(), MpmError> {
@@ -64,7 +80,13 @@ impl EnergyWatch {
                     best = (s, p.id);
                 }
             }
-            return Err(MpmError::EnergyRise { step, t, excess, tolerance: self.tol, point: best.1 });
+            return Err(MpmError::EnergyRise {
+                step,
+                t,
+                excess,
+                tolerance: self.tol,
+                point: best.1,
+            });
         }
         Ok(())
     }

@@ -64,7 +64,11 @@ pub struct KeyRecord {
 impl KeyRecord {
     /// BLAKE3 of the canonical JSON (input ids excluded).
     pub fn key(&self) -> String {
-        let inputs: Vec<(String, Vec<String>)> = self.inputs.iter().map(|(r, v)| (r.clone(), v.iter().map(|(_, k)| k.clone()).collect())).collect();
+        let inputs: Vec<(String, Vec<String>)> = self
+            .inputs
+            .iter()
+            .map(|(r, v)| (r.clone(), v.iter().map(|(_, k)| k.clone()).collect()))
+            .collect();
         let canon = serde_json::json!({
             "kind": self.kind, "version": self.version, "params": self.params,
             "profile": self.profile, "inputs": inputs,
@@ -87,7 +91,10 @@ struct Manifest {
 impl Manifest {
     /// Every file the entry holds (artifacts and the record), with its hash.
     fn all_files(&self) -> impl Iterator<Item = (&str, &str)> {
-        self.files.iter().map(|(n, h)| (n.as_str(), h.as_str())).chain(self.record.as_deref().map(|h| ("record.json", h)))
+        self.files
+            .iter()
+            .map(|(n, h)| (n.as_str(), h.as_str()))
+            .chain(self.record.as_deref().map(|h| ("record.json", h)))
     }
 }
 
@@ -121,7 +128,9 @@ pub fn safe_file_name(name: &str) -> bool {
     !name.is_empty()
         && !name.starts_with('.')
         && !name.contains("..")
-        && name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))
 }
 
 impl Cache {
@@ -188,14 +197,22 @@ impl Cache {
     /// Names of the files an entry holds, from its manifest (artifacts and the record).
     /// Anything else found in the directory is not part of the entry.
     pub fn entry_files(&self, key: &str) -> Result<Vec<String>, String> {
-        Ok(read_manifest(&self.entry_dir(key))?.all_files().map(|(n, _)| n.to_string()).collect())
+        Ok(read_manifest(&self.entry_dir(key))?
+            .all_files()
+            .map(|(n, _)| n.to_string())
+            .collect())
     }
 
     /// The content hash of an entry: BLAKE3 of its key and artifact hashes — not of the
     /// run record, so identical work gives an identical hash whatever its wall time.
     pub fn manifest_hash(&self, key: &str) -> Option<String> {
         let m = read_manifest(&self.entry_dir(key)).ok()?;
-        let files: BTreeMap<&str, &str> = m.files.iter().filter(|(n, _)| n.as_str() != "record.json").map(|(n, h)| (n.as_str(), h.as_str())).collect();
+        let files: BTreeMap<&str, &str> = m
+            .files
+            .iter()
+            .filter(|(n, _)| n.as_str() != "record.json")
+            .map(|(n, h)| (n.as_str(), h.as_str()))
+            .collect();
         let canon = serde_json::json!({ "key": m.key, "files": files });
         Some(blake3::hash(&serde_json::to_vec(&canon).ok()?).to_hex().to_string())
     }
@@ -203,11 +220,16 @@ impl Cache {
     /// Remove `.tmp-*` / `.trash-*` directories older than `age` (left by killed runs);
     /// returns how many were removed.
     pub fn sweep_stale(&self, age: Duration) -> usize {
-        let Ok(rd) = std::fs::read_dir(&self.root) else { return 0 };
+        let Ok(rd) = std::fs::read_dir(&self.root) else {
+            return 0;
+        };
         let mut n = 0;
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
-            if (name.starts_with(".tmp-") || name.starts_with(".trash-")) && fsio::older_than(&e.path(), age) && std::fs::remove_dir_all(e.path()).is_ok() {
+            if (name.starts_with(".tmp-") || name.starts_with(".trash-"))
+                && fsio::older_than(&e.path(), age)
+                && std::fs::remove_dir_all(e.path()).is_ok()
+            {
                 n += 1;
             }
         }
@@ -224,7 +246,15 @@ impl Cache {
     /// differing files are returned — with deterministic stages an empty list (the old
     /// entry, byte-identical, stays), so a forced re-run doubles as a reproducibility check.
     /// Without `replace` the list is empty.
-    pub fn store(&self, key: &str, stage: &str, profile: &str, out: &mut Output, record: &Value, replace: bool) -> anyhow::Result<(PathBuf, Vec<String>)> {
+    pub fn store(
+        &self,
+        key: &str,
+        stage: &str,
+        profile: &str,
+        out: &mut Output,
+        record: &Value,
+        replace: bool,
+    ) -> anyhow::Result<(PathBuf, Vec<String>)> {
         fsio::create_dir_all(&self.root)?;
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".tmp-{key}-"))
@@ -233,8 +263,14 @@ impl Cache {
         fsio::set_mode(tmp.path(), fsio::DIR_MODE)?;
         let mut files: BTreeMap<String, String> = BTreeMap::new();
         let mut put = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
-            anyhow::ensure!(safe_file_name(name), "stage `{stage}` produced a file named `{name}`: names must be one path component of [A-Za-z0-9._-], not starting with '.'");
-            anyhow::ensure!(!files.contains_key(name), "stage `{stage}` produced two files named `{name}`");
+            anyhow::ensure!(
+                safe_file_name(name),
+                "stage `{stage}` produced a file named `{name}`: names must be one path component of [A-Za-z0-9._-], not starting with '.'"
+            );
+            anyhow::ensure!(
+                !files.contains_key(name),
+                "stage `{stage}` produced two files named `{name}`"
+            );
             fsio::write_new(&tmp.path().join(name), bytes)?;
             files.insert(name.to_string(), blake3::hash(bytes).to_hex().to_string());
             Ok(())
@@ -257,15 +293,27 @@ impl Cache {
         put("result.json", &serde_json::to_vec_pretty(&result)?)?;
         let rec_bytes = serde_json::to_vec_pretty(record)?;
         fsio::write_new(&tmp.path().join("record.json"), &rec_bytes)?;
-        let manifest = Manifest { key: key.to_string(), files, record: Some(blake3::hash(&rec_bytes).to_hex().to_string()) };
+        let manifest = Manifest {
+            key: key.to_string(),
+            files,
+            record: Some(blake3::hash(&rec_bytes).to_hex().to_string()),
+        };
         let changed = match replace.then(|| read_manifest(&self.entry_dir(key))) {
             Some(Ok(old)) => {
-                let names: std::collections::BTreeSet<&String> = old.files.keys().chain(manifest.files.keys()).collect();
-                names.into_iter().filter(|n| old.files.get(*n) != manifest.files.get(*n)).cloned().collect()
+                let names: std::collections::BTreeSet<&String> =
+                    old.files.keys().chain(manifest.files.keys()).collect();
+                names
+                    .into_iter()
+                    .filter(|n| old.files.get(*n) != manifest.files.get(*n))
+                    .cloned()
+                    .collect()
             }
             _ => Vec::new(),
         };
-        fsio::write_new(&tmp.path().join("manifest.json"), &serde_json::to_vec_pretty(&manifest)?)?;
+        fsio::write_new(
+            &tmp.path().join("manifest.json"),
+            &serde_json::to_vec_pretty(&manifest)?,
+        )?;
         // Only an entry whose artifacts differ is replaced: removing an identical one would
         // pull it from under a concurrent reader for nothing (tests/concurrency.rs races
         // forced and unforced runs of deterministic stages on one cache).
@@ -280,7 +328,9 @@ impl Cache {
     /// `None`); returns how many entries were removed. Only directories named like keys,
     /// `.tmp-*`, `.trash-*` and `.locks` are touched.
     pub fn clean(&self, profile: Option<&str>) -> std::io::Result<usize> {
-        let Ok(rd) = std::fs::read_dir(&self.root) else { return Ok(0) };
+        let Ok(rd) = std::fs::read_dir(&self.root) else {
+            return Ok(0);
+        };
         let mut n = 0;
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
@@ -322,7 +372,11 @@ impl Cache {
             }
         }
         let _ = std::fs::remove_dir_all(&tmp);
-        Err(fsio::at("cannot put the cache entry in place at", &dest, std::io::Error::other("it kept changing under the lock")))
+        Err(fsio::at(
+            "cannot put the cache entry in place at",
+            &dest,
+            std::io::Error::other("it kept changing under the lock"),
+        ))
     }
 }
 
@@ -333,7 +387,8 @@ fn entry_profile(dir: &Path) -> Option<String> {
 }
 
 fn read_manifest(dir: &Path) -> Result<Manifest, String> {
-    let bytes = std::fs::read(dir.join("manifest.json")).map_err(|_| "manifest.json missing (partial entry)".to_string())?;
+    let bytes =
+        std::fs::read(dir.join("manifest.json")).map_err(|_| "manifest.json missing (partial entry)".to_string())?;
     serde_json::from_slice(&bytes).map_err(|e| format!("manifest.json unreadable: {e}"))
 }
 
@@ -342,7 +397,14 @@ pub fn result_json(stage: &str, profile: &str, out: &Output) -> Value {
     let scalars: serde_json::Map<String, Value> = out
         .scalars
         .iter()
-        .map(|(k, v)| (k.clone(), serde_json::Number::from_f64(*v).map(Value::Number).unwrap_or(Value::Null)))
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                serde_json::Number::from_f64(*v)
+                    .map(Value::Number)
+                    .unwrap_or(Value::Null),
+            )
+        })
         .collect();
     serde_json::json!({
         "stage": stage,
@@ -362,5 +424,7 @@ fn claim_json(c: &crate::pipeline::context::Claim) -> Value {
 }
 
 fn finite(v: f64) -> Value {
-    serde_json::Number::from_f64(v).map(Value::Number).unwrap_or(Value::Null)
+    serde_json::Number::from_f64(v)
+        .map(Value::Number)
+        .unwrap_or(Value::Null)
 }

@@ -20,12 +20,18 @@ pub fn check_id(id: &str) -> Result<(), String> {
         return Err("the stage id is empty".into());
     }
     if id.len() > MAX_ID_LEN {
-        return Err(format!("stage id {shown} is {} characters long (at most {MAX_ID_LEN})", id.len()));
+        return Err(format!(
+            "stage id {shown} is {} characters long (at most {MAX_ID_LEN})",
+            id.len()
+        ));
     }
     if !id.chars().next().is_some_and(|c| c.is_ascii_alphanumeric()) {
         return Err(format!("stage id {shown} must start with a letter or digit"));
     }
-    if let Some(c) = id.chars().find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-'))) {
+    if let Some(c) = id
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')))
+    {
         return Err(format!("stage id {shown} contains {c:?}"));
     }
     if id.contains("..") {
@@ -35,7 +41,8 @@ pub fn check_id(id: &str) -> Result<(), String> {
 }
 
 /// What stage ids may contain, for help lines.
-pub const ID_HELP: &str = "ids match [A-Za-z0-9][A-Za-z0-9._-]* (no `..`, at most 100 characters); they name files under reports/";
+pub const ID_HELP: &str =
+    "ids match [A-Za-z0-9][A-Za-z0-9._-]* (no `..`, at most 100 characters); they name files under reports/";
 
 /// Largest magnitude accepted for a floating-point parameter. No physical parameter of
 /// the chapter comes near it (E ~ 1e8 Pa, k_n ~ 1e5 N/m, ρ ~ 2.5e3 kg/m³); values beyond
@@ -75,7 +82,11 @@ fn walk(v: &Yaml, key: String, out: &mut Vec<BadNumber>) {
             if !x.is_finite() {
                 out.push((key, n.to_string(), "must be a finite number (not .nan / .inf)".into()));
             } else if x.abs() > MAX_MAGNITUDE {
-                out.push((key, n.to_string(), format!("must be a physically plausible number, |value| <= {MAX_MAGNITUDE:e}")));
+                out.push((
+                    key,
+                    n.to_string(),
+                    format!("must be a physically plausible number, |value| <= {MAX_MAGNITUDE:e}"),
+                ));
             }
         }
         _ => {}
@@ -107,7 +118,12 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "pile-runout" => vec![("runs", Many)],
         "pile-series" => vec![("runs", Many)],
         "pile-packing" => vec![("pile", One)],
-        "energy-runout" => vec![("col_dem", Many), ("col_mpm", Many), ("pile_dem", One), ("pile_mpm", One)],
+        "energy-runout" => vec![
+            ("col_dem", Many),
+            ("col_mpm", Many),
+            ("pile_dem", One),
+            ("pile_mpm", One),
+        ],
         "pile-compare" => crate::stages::pile_compare::roles(params),
         "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
@@ -115,21 +131,51 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
         "dem-calibration-point" => vec![("psd", One), ("columns", Many)],
         "dem-calibration" => vec![("points", Many)],
         // A hexagonal lattice is monodisperse: no PSD needed.
-        "dem-column-prep" => vec![("psd", if params.get("packing").and_then(|p| p.as_str()) == Some("hex") { OptionalOne } else { One })],
+        "dem-column-prep" => vec![(
+            "psd",
+            if params.get("packing").and_then(|p| p.as_str()) == Some("hex") {
+                OptionalOne
+            } else {
+                One
+            },
+        )],
         "dem-snapshot" => vec![("column", One)],
         "dem-collapse" | "dem-compress" => vec![("column", One), ("calibration", OptionalOne)],
         "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne), ("coarser", OptionalOne)],
-        "material-table" => vec![("psd", OptionalOne), ("shear", OptionalOne), ("compression", OptionalOne)],
-        "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => vec![("shear", OptionalOne), ("compression", OptionalOne)],
+        "material-table" => vec![
+            ("psd", OptionalOne),
+            ("shear", OptionalOne),
+            ("compression", OptionalOne),
+        ],
+        "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => {
+            vec![("shear", OptionalOne), ("compression", OptionalOne)]
+        }
         // Column study, rest (issue 9): figs 4.12, 4.15, 4.17, 4.19–4.21.
         "column-scheme" => vec![("run", One)],
-        "column-inertial" => vec![("mui04", One), ("mui6", One), ("mc04", One), ("mc6", One), ("dem04", One), ("dem6", One)],
+        "column-inertial" => vec![
+            ("mui04", One),
+            ("mui6", One),
+            ("mc04", One),
+            ("mc6", One),
+            ("dem04", One),
+            ("dem6", One),
+        ],
         "column-packing" => vec![("loose", One), ("dense", One)],
-        "column-density-pair" => vec![("loose", One), ("dense", One), ("loose_prep", One), ("dense_prep", One), ("emin", One), ("emax", One)],
+        "column-density-pair" => vec![
+            ("loose", One),
+            ("dense", One),
+            ("loose_prep", One),
+            ("dense_prep", One),
+            ("emin", One),
+            ("emax", One),
+        ],
         // Free role names, checked against the declaration in `check_roles`.
         "plot" | "sweep-compare" | "snapshot" => vec![],
         "power-law-fit" => {
-            let overlays = params.get("overlay_laws").and_then(|o| o.as_array()).is_some_and(|a| !a.is_empty());
+            let overlays = params
+                .get("overlay_laws")
+                .and_then(|o| o.as_array())
+                .is_some_and(|a| !a.is_empty());
             vec![("data", Many), ("laws", if overlays { One } else { OptionalOne })]
         }
         _ => return None,
@@ -139,16 +185,26 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
 /// Problems with a stage's resolved inputs against its kind's roles: (message, help).
 pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) -> Vec<(String, String)> {
     let declared = match kind {
-        "plot" => serde_json::from_value::<crate::stages::plot::PlotParams>(params.clone()).ok().map(|p| p.roles()),
-        "sweep-compare" => serde_json::from_value::<crate::stages::compare::CompareParams>(params.clone()).ok().map(|p| p.roles()),
-        "snapshot" => serde_json::from_value::<crate::stages::snapshot::SnapParams>(params.clone()).ok().map(|p| p.roles()),
+        "plot" => serde_json::from_value::<crate::stages::plot::PlotParams>(params.clone())
+            .ok()
+            .map(|p| p.roles()),
+        "sweep-compare" => serde_json::from_value::<crate::stages::compare::CompareParams>(params.clone())
+            .ok()
+            .map(|p| p.roles()),
+        "snapshot" => serde_json::from_value::<crate::stages::snapshot::SnapParams>(params.clone())
+            .ok()
+            .map(|p| p.roles()),
         _ => None,
     };
     if let Some(read) = declared {
         return free_roles(kind, &read, inputs);
     }
     let Some(want) = roles(kind, params) else { return vec![] };
-    let allowed = if want.is_empty() { "none (this kind reads no inputs)".to_string() } else { want.iter().map(|(r, _)| *r).collect::<Vec<_>>().join(", ") };
+    let allowed = if want.is_empty() {
+        "none (this kind reads no inputs)".to_string()
+    } else {
+        want.iter().map(|(r, _)| *r).collect::<Vec<_>>().join(", ")
+    };
     let mut out = Vec::new();
     for (role, ids) in inputs {
         match want.iter().find(|(r, _)| r == role) {
@@ -157,7 +213,11 @@ pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) 
                 format!("roles of `{kind}`: {allowed}; write `inputs: {{ ROLE: STAGE }}`"),
             )),
             Some((_, Arity::One | Arity::OptionalOne)) if ids.len() != 1 => out.push((
-                format!("input `{role}` must name exactly one stage (it names {}: {})", ids.len(), ids.join(", ")),
+                format!(
+                    "input `{role}` must name exactly one stage (it names {}: {})",
+                    ids.len(),
+                    ids.join(", ")
+                ),
                 "name one stage, or one matrix member (e.g. `col-dem-prep-a0.4`)".into(),
             )),
             _ => {}
@@ -165,7 +225,10 @@ pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) 
     }
     for (role, arity) in &want {
         if matches!(arity, Arity::One | Arity::Many) && !inputs.iter().any(|(r, _)| r == role) {
-            out.push((format!("missing required input `{role}` of kind `{kind}`"), format!("add `inputs: {{ {role}: STAGE }}`; roles of `{kind}`: {allowed}")));
+            out.push((
+                format!("missing required input `{role}` of kind `{kind}`"),
+                format!("add `inputs: {{ {role}: STAGE }}`; roles of `{kind}`: {allowed}"),
+            ));
         }
     }
     out
@@ -178,12 +241,18 @@ fn free_roles(kind: &str, read: &[String], inputs: &[(String, Vec<String>)]) -> 
     let mut out = Vec::new();
     for r in read {
         if !inputs.iter().any(|(role, _)| role == r) {
-            out.push((format!("the {kind} stage reads role `{r}`, which is not under `inputs:`"), format!("add `inputs: {{ {r}: STAGE }}` (a matrix base id fans in all its members)")));
+            out.push((
+                format!("the {kind} stage reads role `{r}`, which is not under `inputs:`"),
+                format!("add `inputs: {{ {r}: STAGE }}` (a matrix base id fans in all its members)"),
+            ));
         }
     }
     for (role, _) in inputs {
         if !read.contains(role) {
-            out.push((format!("input role `{role}` is not read by the {kind} stage's params"), format!("roles it reads: {}; remove the input or use it", read.join(", "))));
+            out.push((
+                format!("input role `{role}` is not read by the {kind} stage's params"),
+                format!("roles it reads: {}; remove the input or use it", read.join(", ")),
+            ));
         }
     }
     out
@@ -193,10 +262,13 @@ fn free_roles(kind: &str, read: &[String], inputs: &[(String, Vec<String>)]) -> 
 /// a shared stage file, or in both profiles) is printed once, naming every stage.
 pub fn dedupe(d: Diagnostics) -> Diagnostics {
     // Group on (file, line, key without the stage prefix, message).
-    let mut groups: BTreeMap<(String, Option<usize>, String, String), (usize, Vec<String>, Diagnostic)> = BTreeMap::new();
+    let mut groups: BTreeMap<(String, Option<usize>, String, String), (usize, Vec<String>, Diagnostic)> =
+        BTreeMap::new();
     for (i, x) in d.0.into_iter().enumerate() {
         let (stage, rest) = split_stage_key(&x.key);
-        let g = groups.entry((x.file.display().to_string(), x.line, rest.clone(), x.message.clone())).or_insert_with(|| (i, Vec::new(), x.clone()));
+        let g = groups
+            .entry((x.file.display().to_string(), x.line, rest.clone(), x.message.clone()))
+            .or_insert_with(|| (i, Vec::new(), x.clone()));
         if let Some(s) = stage {
             if !g.1.contains(&s) {
                 g.1.push(s);
@@ -236,14 +308,28 @@ mod tests {
         for ok in ["psd-col", "col-dem-prep-a0.4", "A_1", "0x"] {
             assert!(check_id(ok).is_ok(), "{ok}");
         }
-        for bad in ["", "../../../escaped-laws", "sub/laws", ".hidden", "a..b", "x\ny", "a b", "-x", "é", &"a".repeat(101)] {
+        for bad in [
+            "",
+            "../../../escaped-laws",
+            "sub/laws",
+            ".hidden",
+            "a..b",
+            "x\ny",
+            "a b",
+            "-x",
+            "é",
+            &"a".repeat(101),
+        ] {
             assert!(check_id(bad).is_err(), "{bad:?}");
         }
     }
 
     #[test]
     fn numbers() {
-        let v: Yaml = serde_yaml::from_str("a: .nan\nb: {c: -.inf}\nd: 1e308\ne: 2.5e3\nf: [1.0, .inf]\nseed: 18446744073709551615").unwrap();
+        let v: Yaml = serde_yaml::from_str(
+            "a: .nan\nb: {c: -.inf}\nd: 1e308\ne: 2.5e3\nf: [1.0, .inf]\nseed: 18446744073709551615",
+        )
+        .unwrap();
         let keys: Vec<String> = bad_numbers(&v).into_iter().map(|b| b.0).collect();
         assert_eq!(keys, ["a", "b.c", "d", "f[1]"]);
     }
@@ -251,7 +337,10 @@ mod tests {
     #[test]
     fn every_kind_has_its_roles_declared() {
         for name in crate::stages::registry().keys() {
-            assert!(roles(name, &serde_json::json!({})).is_some(), "kind `{name}` is missing from check::roles");
+            assert!(
+                roles(name, &serde_json::json!({})).is_some(),
+                "kind `{name}` is missing from check::roles"
+            );
         }
     }
 
@@ -262,6 +351,9 @@ mod tests {
         assert_eq!(check_roles("psd-figure", &p, &[]).len(), 1);
         assert_eq!(check_roles("psd", &p, &[("psd".into(), vec!["x".into()])]).len(), 1);
         assert!(check_roles("dem-column-prep", &serde_json::json!({"packing": "hex"}), &[]).is_empty());
-        assert_eq!(check_roles("dem-collapse", &p, &[("column".into(), vec!["a".into(), "b".into()])]).len(), 1);
+        assert_eq!(
+            check_roles("dem-collapse", &p, &[("column".into(), vec!["a".into(), "b".into()])]).len(),
+            1
+        );
     }
 }

@@ -37,7 +37,15 @@ impl Claim {
     /// Build a claim with an absolute tolerance.
     pub fn abs(id: &str, statement: &str, paper: f64, ours: f64, tolerance: f64) -> Claim {
         let pass = ours.is_finite() && (ours - paper).abs() <= tolerance;
-        Claim { id: id.into(), statement: statement.into(), paper, ours, tolerance, pass, calibrated: false }
+        Claim {
+            id: id.into(),
+            statement: statement.into(),
+            paper,
+            ours,
+            tolerance,
+            pass,
+            calibrated: false,
+        }
     }
     /// Build a claim with a relative tolerance (fraction of |paper|).
     pub fn rel(id: &str, statement: &str, paper: f64, ours: f64, rel: f64) -> Claim {
@@ -45,11 +53,27 @@ impl Claim {
     }
     /// A one-sided claim "ours ≤ bound" (paper = bound, tolerance = 0 means ours must not exceed it).
     pub fn at_most(id: &str, statement: &str, bound: f64, ours: f64) -> Claim {
-        Claim { id: id.into(), statement: statement.into(), paper: bound, ours, tolerance: 0.0, pass: ours.is_finite() && ours <= bound, calibrated: false }
+        Claim {
+            id: id.into(),
+            statement: statement.into(),
+            paper: bound,
+            ours,
+            tolerance: 0.0,
+            pass: ours.is_finite() && ours <= bound,
+            calibrated: false,
+        }
     }
     /// A one-sided claim "ours ≥ bound".
     pub fn at_least(id: &str, statement: &str, bound: f64, ours: f64) -> Claim {
-        Claim { id: id.into(), statement: statement.into(), paper: bound, ours, tolerance: 0.0, pass: ours.is_finite() && ours >= bound, calibrated: false }
+        Claim {
+            id: id.into(),
+            statement: statement.into(),
+            paper: bound,
+            ours,
+            tolerance: 0.0,
+            pass: ours.is_finite() && ours >= bound,
+            calibrated: false,
+        }
     }
     /// Mark as resting on a calibrated parameter.
     pub fn calibrated(mut self) -> Claim {
@@ -116,19 +140,28 @@ impl InputRef {
     /// Read one of its tables (`table` for the main one).
     pub fn table(&self, name: &str) -> anyhow::Result<DataFrame> {
         let p = self.dir.join(format!("{name}.parquet"));
-        let f = std::fs::File::open(&p).with_context(|| format!("input `{}` has no table `{name}` ({})", self.id, p.display()))?;
+        let f = std::fs::File::open(&p)
+            .with_context(|| format!("input `{}` has no table `{name}` ({})", self.id, p.display()))?;
         Ok(ParquetReader::new(f).finish()?)
     }
     /// Its scalars.
     pub fn scalars(&self) -> anyhow::Result<BTreeMap<String, f64>> {
         let p = self.dir.join("result.json");
         let v: Value = serde_json::from_slice(&std::fs::read(&p)?)?;
-        let m = v.get("scalars").and_then(|s| s.as_object()).ok_or_else(|| anyhow!("{}: no scalars", p.display()))?;
-        Ok(m.iter().filter_map(|(k, v)| v.as_f64().map(|x| (k.clone(), x))).collect())
+        let m = v
+            .get("scalars")
+            .and_then(|s| s.as_object())
+            .ok_or_else(|| anyhow!("{}: no scalars", p.display()))?;
+        Ok(m.iter()
+            .filter_map(|(k, v)| v.as_f64().map(|x| (k.clone(), x)))
+            .collect())
     }
     /// One scalar, or an error naming it.
     pub fn scalar(&self, name: &str) -> anyhow::Result<f64> {
-        self.scalars()?.get(name).copied().ok_or_else(|| anyhow!("input `{}` has no scalar `{name}`", self.id))
+        self.scalars()?
+            .get(name)
+            .copied()
+            .ok_or_else(|| anyhow!("input `{}` has no scalar `{name}`", self.id))
     }
     /// An extra file's bytes.
     pub fn file(&self, name: &str) -> anyhow::Result<Vec<u8>> {
@@ -159,8 +192,14 @@ impl StageCtx {
     pub fn input(&self, role: &str) -> anyhow::Result<&InputRef> {
         match self.inputs.get(role).map(|v| v.as_slice()) {
             Some([one]) => Ok(one),
-            Some([]) | None => Err(anyhow!("stage `{}` needs an input named `{role}` (declare it under `inputs:` in pipeline.yaml)", self.id)),
-            Some(_) => Err(anyhow!("stage `{}`: input `{role}` must name exactly one stage", self.id)),
+            Some([]) | None => Err(anyhow!(
+                "stage `{}` needs an input named `{role}` (declare it under `inputs:` in pipeline.yaml)",
+                self.id
+            )),
+            Some(_) => Err(anyhow!(
+                "stage `{}`: input `{role}` must name exactly one stage",
+                self.id
+            )),
         }
     }
     /// The single input of a role, if declared.

@@ -11,7 +11,13 @@ pub fn topo_order(stages: &[Stage]) -> Result<Vec<usize>, Vec<String>> {
     let idx: HashMap<&str, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.as_str(), i)).collect();
     let deps: Vec<Vec<usize>> = stages
         .iter()
-        .map(|s| s.inputs.iter().flat_map(|(_, ids)| ids.iter()).filter_map(|d| idx.get(d.as_str()).copied()).collect())
+        .map(|s| {
+            s.inputs
+                .iter()
+                .flat_map(|(_, ids)| ids.iter())
+                .filter_map(|d| idx.get(d.as_str()).copied())
+                .collect()
+        })
         .collect();
     // 0 = unvisited, 1 = on stack, 2 = done. Iterative DFS keeps file order stable.
     let mut state = vec![0u8; stages.len()];
@@ -79,7 +85,11 @@ pub fn closure(p: &Pipeline, targets: &[String]) -> Result<Vec<String>, Vec<Stri
             }
         }
     }
-    Ok(p.stages.iter().filter(|s| want.contains(&s.id)).map(|s| s.id.clone()).collect())
+    Ok(p.stages
+        .iter()
+        .filter(|s| want.contains(&s.id))
+        .map(|s| s.id.clone())
+        .collect())
 }
 
 fn quote(s: &str) -> String {
@@ -90,7 +100,12 @@ fn quote(s: &str) -> String {
 pub fn to_dot(p: &Pipeline) -> String {
     let mut s = String::from("digraph granrepro {\n  rankdir=LR;\n  node [shape=box, fontname=\"Helvetica\"];\n");
     for st in &p.stages {
-        s.push_str(&format!("  \"{}\" [label=\"{}\\n({})\"];\n", quote(&st.id), quote(&st.id), quote(&st.kind)));
+        s.push_str(&format!(
+            "  \"{}\" [label=\"{}\\n({})\"];\n",
+            quote(&st.id),
+            quote(&st.id),
+            quote(&st.kind)
+        ));
     }
     for st in &p.stages {
         for (_, ids) in &st.inputs {

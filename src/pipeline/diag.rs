@@ -40,8 +40,21 @@ pub struct Diagnostics(pub Vec<Diagnostic>);
 
 impl Diagnostics {
     /// Add one problem.
-    pub fn push(&mut self, file: &Path, line: Option<usize>, key: impl Into<String>, message: impl Into<String>, help: impl Into<String>) {
-        self.0.push(Diagnostic { file: file.to_path_buf(), line, key: key.into(), message: message.into(), help: help.into() });
+    pub fn push(
+        &mut self,
+        file: &Path,
+        line: Option<usize>,
+        key: impl Into<String>,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) {
+        self.0.push(Diagnostic {
+            file: file.to_path_buf(),
+            line,
+            key: key.into(),
+            message: message.into(),
+            help: help.into(),
+        });
     }
     /// No problems?
     pub fn is_empty(&self) -> bool {
@@ -83,7 +96,13 @@ pub fn locate(text: &str, path: &[&str], from_line: usize) -> Option<usize> {
                 }
             }
             let body = trimmed.strip_prefix("- ").unwrap_or(trimmed);
-            let key = body.split(':').next().unwrap_or("").trim().trim_matches('"').trim_matches('\'');
+            let key = body
+                .split(':')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .trim_matches('"')
+                .trim_matches('\'');
             if key == *seg && body.contains(':') {
                 hit = Some((i, indent));
                 break;
@@ -107,7 +126,13 @@ pub fn locate_stage(text: &str, id: &str) -> Option<usize> {
         let t = raw.trim_start();
         let t = t.strip_prefix("- ").unwrap_or(t).trim_start();
         if let Some(rest) = t.strip_prefix("id:") {
-            let v = rest.split('#').next().unwrap_or("").trim().trim_matches('"').trim_matches('\'');
+            let v = rest
+                .split('#')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .trim_matches('"')
+                .trim_matches('\'');
             if v == id {
                 return Some(i + 1);
             }

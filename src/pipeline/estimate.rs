@@ -80,7 +80,11 @@ impl Estimate {
     }
     /// Threads of a worker (the quick runs' thread count).
     pub fn threads(&self) -> usize {
-        self.rows.iter().filter_map(|r| r.quick.map(|m| m.threads)).max().unwrap_or(1)
+        self.rows
+            .iter()
+            .filter_map(|r| r.quick.map(|m| m.threads))
+            .max()
+            .unwrap_or(1)
     }
     /// Workers of `threads()` cores that finish in one night (if the longest chain fits).
     pub fn workers_for_night(&self) -> usize {
@@ -89,12 +93,19 @@ impl Estimate {
     }
     /// Stages without a quick run record.
     pub fn unmeasured(&self) -> Vec<&str> {
-        self.rows.iter().filter(|r| r.quick.is_none()).map(|r| r.id.as_str()).collect()
+        self.rows
+            .iter()
+            .filter(|r| r.quick.is_none())
+            .map(|r| r.id.as_str())
+            .collect()
     }
     /// The estimated wall of one stage, as export uses it.
     pub fn measured(&self, id: &str) -> Option<Measured> {
         let r = self.rows.iter().find(|r| r.id == id)?;
-        Some(Measured { wall_s: r.wall_s()?, threads: r.quick?.threads })
+        Some(Measured {
+            wall_s: r.wall_s()?,
+            threads: r.quick?.threads,
+        })
     }
     /// Families: (family, kind, stages, quick CPU-h, estimated CPU-h, bases).
     fn families(&self) -> Vec<(String, String, usize, f64, f64, String, bool)> {
@@ -108,7 +119,15 @@ impl Estimate {
                     f.4 += r.cpu_h().unwrap_or(0.0);
                     f.6 |= r.quick.is_none();
                 }
-                None => out.push((r.family.clone(), r.kind.clone(), 1, q, r.cpu_h().unwrap_or(0.0), r.basis.clone(), r.quick.is_none())),
+                None => out.push((
+                    r.family.clone(),
+                    r.kind.clone(),
+                    1,
+                    q,
+                    r.cpu_h().unwrap_or(0.0),
+                    r.basis.clone(),
+                    r.quick.is_none(),
+                )),
             }
         }
         out
@@ -139,9 +158,16 @@ impl Estimate {
              factor of 2–3.\n\n",
             self.profile
         );
-        s.push_str(&format!("{:<26} {:<22} {:>6} {:>11} {:>12}  {}\n", "family", "kind", "stages", "quick CPU-h", "est. CPU-h", "work ratio (per stage)"));
+        s.push_str(&format!(
+            "{:<26} {:<22} {:>6} {:>11} {:>12}  {}\n",
+            "family", "kind", "stages", "quick CPU-h", "est. CPU-h", "work ratio (per stage)"
+        ));
         for (fam, kind, n, q, e, basis, missing) in self.families() {
-            let est = if missing { format!("{e:.2}+?") } else { format!("{e:.2}") };
+            let est = if missing {
+                format!("{e:.2}+?")
+            } else {
+                format!("{e:.2}")
+            };
             s.push_str(&format!("{fam:<26} {kind:<22} {n:>6} {q:>11.3} {est:>12}  {basis}\n"));
         }
         s.push_str(&format!(
@@ -154,7 +180,11 @@ impl Estimate {
         let wall_h: f64 = self.rows.iter().filter_map(Row::wall_s).sum::<f64>() / 3600.0;
         let chain_h = self.critical.0 / 3600.0;
         if chain_h <= NIGHT_H {
-            s.push_str(&format!("overnight ({NIGHT_H} h): {} workers of {} cores.\n", self.workers_for_night(), self.threads()));
+            s.push_str(&format!(
+                "overnight ({NIGHT_H} h): {} workers of {} cores.\n",
+                self.workers_for_night(),
+                self.threads()
+            ));
         } else {
             s.push_str(&format!(
                 "not overnight at {} threads per stage: the chain alone takes {chain_h:.1} h > {NIGHT_H} h (a stage runs on\n\
@@ -167,7 +197,10 @@ impl Estimate {
         }
         let um = self.unmeasured();
         if !um.is_empty() {
-            s.push_str(&format!("not measured (no quick run record; `granrepro run --stage ID` first, then re-estimate): {}\n", um.join(", ")));
+            s.push_str(&format!(
+                "not measured (no quick run record; `granrepro run --stage ID` first, then re-estimate): {}\n",
+                um.join(", ")
+            ));
         }
         s
     }
@@ -175,38 +208,72 @@ impl Estimate {
 
 /// Estimate the stages `targets` need (all when empty) of profile `p.profile`.
 pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Estimate, String> {
-    let ids = super::dag::closure(p, targets).map_err(|u| format!("unknown stage(s): {} (see `granrepro list`)", u.join(", ")))?;
+    let ids = super::dag::closure(p, targets)
+        .map_err(|u| format!("unknown stage(s): {} (see `granrepro list`)", u.join(", ")))?;
     let q = load(&p.path, "quick", &[]).map_err(|d| d.to_string())?;
     let qkeys = key_records(&q);
     let mut rows = Vec::new();
     for id in &ids {
         let st = p.get(id).expect("closure id");
-        let quick = q.get(id).and_then(|qs| entry_record(proj, &qkeys[&qs.id].1)).or_else(|| super::export::measured_from_record(&proj.report_dir("quick"), id));
+        let quick = q
+            .get(id)
+            .and_then(|qs| entry_record(proj, &qkeys[&qs.id].1))
+            .or_else(|| super::export::measured_from_record(&proj.report_dir("quick"), id));
         let (scale, basis) = match (q.get(id).and_then(|qs| work(&q, qs)), work(p, st)) {
             (Some((wq, max_of)), Some((wp, _))) if wq.len() == wp.len() && wq.iter().all(|(_, x)| *x > 0.0) => {
                 let ratios: Vec<f64> = wp.iter().zip(&wq).map(|((_, a), (_, b))| a / b).collect();
-                let scale = if max_of { ratios.iter().fold(0.0f64, |a, &b| a.max(b)) } else { ratios.iter().product() };
-                let parts: Vec<String> = wp.iter().zip(&ratios).map(|((n, _), r)| format!("{n} ×{}", short(*r))).collect();
-                (scale, parts.join(if max_of { " | " } else { ", " }) + if max_of { " (larger)" } else { "" })
+                let scale = if max_of {
+                    ratios.iter().fold(0.0f64, |a, &b| a.max(b))
+                } else {
+                    ratios.iter().product()
+                };
+                let parts: Vec<String> = wp
+                    .iter()
+                    .zip(&ratios)
+                    .map(|((n, _), r)| format!("{n} ×{}", short(*r)))
+                    .collect();
+                (
+                    scale,
+                    parts.join(if max_of { " | " } else { ", " }) + if max_of { " (larger)" } else { "" },
+                )
             }
             _ => (1.0, "bookkeeping: as measured".to_string()),
         };
-        rows.push(Row { id: id.clone(), family: st.base_id.clone(), kind: st.kind.clone(), quick, scale, basis });
+        rows.push(Row {
+            id: id.clone(),
+            family: st.base_id.clone(),
+            kind: st.kind.clone(),
+            quick,
+            scale,
+            basis,
+        });
     }
     // Longest chain of estimated walls (plan order is topological).
-    let wall: HashMap<&str, f64> = rows.iter().map(|r| (r.id.as_str(), r.wall_s().unwrap_or(0.0))).collect();
+    let wall: HashMap<&str, f64> = rows
+        .iter()
+        .map(|r| (r.id.as_str(), r.wall_s().unwrap_or(0.0)))
+        .collect();
     let mut finish: HashMap<String, f64> = HashMap::new();
     let mut critical = (0.0, String::new());
     for id in &ids {
         let st = p.get(id).unwrap();
-        let start = st.inputs.iter().flat_map(|(_, v)| v.iter()).filter_map(|d| finish.get(d)).fold(0.0f64, |a, &b| a.max(b));
+        let start = st
+            .inputs
+            .iter()
+            .flat_map(|(_, v)| v.iter())
+            .filter_map(|d| finish.get(d))
+            .fold(0.0f64, |a, &b| a.max(b));
         let f = start + wall[id.as_str()];
         if f > critical.0 {
             critical = (f, id.clone());
         }
         finish.insert(id.clone(), f);
     }
-    Ok(Estimate { profile: p.profile.clone(), rows, critical })
+    Ok(Estimate {
+        profile: p.profile.clone(),
+        rows,
+        critical,
+    })
 }
 
 /// Wall and threads from the run record inside a cache entry.
@@ -219,12 +286,21 @@ fn num(v: &Value, path: &str) -> Option<f64> {
 }
 
 fn list(v: &Value, key: &str) -> Vec<f64> {
-    v.get(key).and_then(|x| x.as_array()).map(|a| a.iter().filter_map(|x| x.as_f64()).collect()).unwrap_or_default()
+    v.get(key)
+        .and_then(|x| x.as_array())
+        .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+        .unwrap_or_default()
 }
 
 /// Params of the stages feeding `role`.
 fn inputs<'a>(p: &'a Pipeline, st: &Stage, role: &str) -> Vec<&'a Value> {
-    st.inputs.iter().filter(|(r, _)| r == role).flat_map(|(_, ids)| ids.iter()).filter_map(|id| p.get(id)).map(|s| &s.params).collect()
+    st.inputs
+        .iter()
+        .filter(|(r, _)| r == role)
+        .flat_map(|(_, ids)| ids.iter())
+        .filter_map(|id| p.get(id))
+        .map(|s| &s.params)
+        .collect()
 }
 
 /// Grains of a pile preparation: its `grains` param when set (> 0), else all of its PSD's.
@@ -237,7 +313,11 @@ fn pile_grains(p: &Pipeline, prep: &Stage) -> Option<f64> {
 
 /// A ratio, short.
 fn short(r: f64) -> String {
-    if r >= 10.0 { format!("{r:.0}") } else { format!("{r:.2}") }
+    if r >= 10.0 {
+        format!("{r:.0}")
+    } else {
+        format!("{r:.2}")
+    }
 }
 
 /// A stage's work as factors in relative units (grains, steps or points; only the ratio
@@ -249,28 +329,47 @@ fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
     let dem_rate = |v: &Value| num(v, "stiffness_factor").unwrap_or(1.0).sqrt() / num(v, "dem.dt").unwrap_or(1.0);
     let column_area = || inputs(p, st, "column").first().and_then(|c| num(c, "area_m2"));
     let psd_n = || inputs(p, st, "psd").first().and_then(|c| num(c, "n"));
-    let shear_time = |v: &Value| num(v, "shear.strain").unwrap_or(1.0) * list(&v["shear"], "pressures").iter().map(|p| p.powf(-0.5)).sum::<f64>();
+    let shear_time = |v: &Value| {
+        num(v, "shear.strain").unwrap_or(1.0) * list(&v["shear"], "pressures").iter().map(|p| p.powf(-0.5)).sum::<f64>()
+    };
     let f = |g: (&'static str, f64), s: (&'static str, f64)| Some((vec![g, s], false));
     match st.kind.as_str() {
         "dem-column-prep" => f(("grains", num(v, "area_m2")?), ("steps", dem_rate(v))),
         "dem-collapse" | "dem-compress" => f(("grains", column_area()?), ("steps", dem_rate(v))),
         "dem-work-precision" => {
             let members = num(v, "ensemble.members").unwrap_or(1.0);
-            let steps: f64 = v.get("variants")?.as_array()?.iter().map(|x| num(x, "stiffness_factor").unwrap_or(1.0).sqrt() / num(x, "dt_fraction").unwrap_or(1.0)).sum();
+            let steps: f64 = v
+                .get("variants")?
+                .as_array()?
+                .iter()
+                .map(|x| num(x, "stiffness_factor").unwrap_or(1.0).sqrt() / num(x, "dt_fraction").unwrap_or(1.0))
+                .sum();
             f(("grains", column_area()?), ("steps", members * steps))
         }
         "dem-shear" => f(("grains", psd_n()?), ("steps", dem_rate(v) * shear_time(v))),
         "dem-calibration-point" => {
             // Shear test and column ensembles: bounded by the larger ratio (see the module doc).
             let shear = psd_n()? * dem_rate(v) * shear_time(v);
-            let cols: f64 = inputs(p, st, "columns").iter().filter_map(|c| num(c, "area_m2")).sum::<f64>() * dem_rate(v);
+            let cols: f64 = inputs(p, st, "columns")
+                .iter()
+                .filter_map(|c| num(c, "area_m2"))
+                .sum::<f64>()
+                * dem_rate(v);
             Some((vec![("shear test", shear), ("columns", cols)], true))
         }
-        "dem-pile-prep" => f(("grains", pile_grains(p, st)?), ("steps", dem_rate(v) * num(v, "pile.max_time").unwrap_or(1.0))),
+        "dem-pile-prep" => f(
+            ("grains", pile_grains(p, st)?),
+            ("steps", dem_rate(v) * num(v, "pile.max_time").unwrap_or(1.0)),
+        ),
         "pile-run" => {
             // Every energy runs to stop.t_max at most (in √(d/g); the same d̄ at both
             // profiles): an upper bound, as the runs stop earlier by the stopping rule.
-            let prep = st.inputs.iter().find(|(r, _)| r == "pile").and_then(|(_, ids)| ids.first()).and_then(|id| p.get(id))?;
+            let prep = st
+                .inputs
+                .iter()
+                .find(|(r, _)| r == "pile")
+                .and_then(|(_, ids)| ids.first())
+                .and_then(|id| p.get(id))?;
             let grains = pile_grains(p, prep)?;
             let time = list(v, "energies_mgd").len() as f64 * num(v, "stop.t_max")?;
             match v.get("method")?.as_str()? {
@@ -288,18 +387,24 @@ fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
         }
         "mpm-collapse" | "mpm-geostatic" | "mpm-work-precision" => {
             let m = &v["mpm"];
-            let c_p = serde_json::from_value::<crate::mpm::params::Material>(m["material"].clone()).ok()?.p_wave_speed();
+            let c_p = serde_json::from_value::<crate::mpm::params::Material>(m["material"].clone())
+                .ok()?
+                .p_wave_speed();
             let area = num(v, "area_m2").unwrap_or(1.0);
             let points = |ppc: f64, h: f64| area * ppc / (h * h);
             let cfl = |k: f64, h: f64| c_p / (k * h);
             let h = num(m, "cell_size")?;
             let ppc = num(m, "ppc")?;
             match st.kind.as_str() {
-                "mpm-geostatic" => f(("points", points(ppc, h)), ("steps", cfl(num(m, "geostatic.courant")?, h))),
+                "mpm-geostatic" => f(
+                    ("points", points(ppc, h)),
+                    ("steps", cfl(num(m, "geostatic.courant")?, h)),
+                ),
                 "mpm-collapse" => {
                     let rate = match num(m, "step.fixed.dt") {
                         Some(dt) => 1.0 / dt,
-                        None => cfl(num(m, "step.cfl.courant")?, h).max(1.0 / num(m, "step.cfl.dt_max").unwrap_or(f64::INFINITY)),
+                        None => cfl(num(m, "step.cfl.courant")?, h)
+                            .max(1.0 / num(m, "step.cfl.dt_max").unwrap_or(f64::INFINITY)),
                     };
                     f(("points", points(ppc, h)), ("steps", rate))
                 }
@@ -321,13 +426,27 @@ fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
             }
         }
         "cd-shear" => {
-            let steps = num(v, "shear.strain").unwrap_or(1.0) * list(&v["shear"], "inertial_numbers").iter().map(|i| 1.0 / i).sum::<f64>() / num(v, "cd.dt")?;
+            let steps = num(v, "shear.strain").unwrap_or(1.0)
+                * list(&v["shear"], "inertial_numbers")
+                    .iter()
+                    .map(|i| 1.0 / i)
+                    .sum::<f64>()
+                / num(v, "cd.dt")?;
             f(("grains", num(v, "grains")?), ("steps", steps))
         }
         "cd-work-precision" => {
             let t = num(v, "settle_time").unwrap_or(0.0) + num(v, "run_time").unwrap_or(0.0);
-            let steps: f64 = v.get("variants")?.as_array()?.iter().filter_map(|x| num(x, "dt")).map(|dt| t / dt).sum();
-            f(("grains", num(v, "deposit.ncol")? * num(v, "deposit.nrow")?), ("steps", steps))
+            let steps: f64 = v
+                .get("variants")?
+                .as_array()?
+                .iter()
+                .filter_map(|x| num(x, "dt"))
+                .map(|dt| t / dt)
+                .sum();
+            f(
+                ("grains", num(v, "deposit.ncol")? * num(v, "deposit.nrow")?),
+                ("steps", steps),
+            )
         }
         _ => None,
     }
@@ -339,7 +458,12 @@ mod tests {
 
     /// The shipped pipeline.yaml at `profile`.
     fn shipped(profile: &str) -> Pipeline {
-        load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.yaml"), profile, &[]).unwrap()
+        load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.yaml"),
+            profile,
+            &[],
+        )
+        .unwrap()
     }
 
     /// The shear test's ratio, worked by hand from stages/shear-dem.yaml and psd-shear.yaml:
@@ -349,15 +473,27 @@ mod tests {
         let (p, q, dir) = (shipped("paper"), shipped("quick"), tempfile::tempdir().unwrap());
         let proj = Project::new(dir.path());
         std::fs::create_dir_all(proj.report_dir("quick")).unwrap();
-        std::fs::write(proj.report_dir("quick").join("fig4-03.record.json"), r#"{"wall_s": 100.0, "threads": 2}"#).unwrap();
+        std::fs::write(
+            proj.report_dir("quick").join("fig4-03.record.json"),
+            r#"{"wall_s": 100.0, "threads": 2}"#,
+        )
+        .unwrap();
         let e = estimate(&p, &proj, &["fig4-03".to_string()]).unwrap();
         let row = e.rows.iter().find(|r| r.id == "fig4-03").unwrap();
-        let sum = |pl: &Pipeline| list(&pl.get("fig4-03").unwrap().params["shear"], "pressures").iter().map(|x| x.powf(-0.5)).sum::<f64>();
+        let sum = |pl: &Pipeline| {
+            list(&pl.get("fig4-03").unwrap().params["shear"], "pressures")
+                .iter()
+                .map(|x| x.powf(-0.5))
+                .sum::<f64>()
+        };
         let n = |pl: &Pipeline| num(&pl.get("psd-shear").unwrap().params, "n").unwrap();
         let strain = |pl: &Pipeline| num(&pl.get("fig4-03").unwrap().params, "shear.strain").unwrap();
         let sf = |pl: &Pipeline| num(&pl.get("fig4-03").unwrap().params, "stiffness_factor").unwrap();
         let want = n(&p) / n(&q) * (sf(&p) / sf(&q)).sqrt() * strain(&p) / strain(&q) * sum(&p) / sum(&q);
-        assert!(want > 10.0, "the paper shear test is much bigger than the quick one: {want}");
+        assert!(
+            want > 10.0,
+            "the paper shear test is much bigger than the quick one: {want}"
+        );
         assert!((row.scale - want).abs() < 1e-9 * want, "{} vs {want}", row.scale);
         assert!((row.cpu_h().unwrap() - 100.0 * want * 2.0 / 3600.0).abs() < 1e-9 * want);
         // Stages it needs without a record are listed, not guessed.
@@ -377,7 +513,11 @@ mod tests {
         let proj = Project::new(dir.path());
         std::fs::create_dir_all(proj.report_dir("quick")).unwrap();
         for id in ["pile-dem-g", "fig4-23"] {
-            std::fs::write(proj.report_dir("quick").join(format!("{id}.record.json")), r#"{"wall_s": 10.0, "threads": 1}"#).unwrap();
+            std::fs::write(
+                proj.report_dir("quick").join(format!("{id}.record.json")),
+                r#"{"wall_s": 10.0, "threads": 1}"#,
+            )
+            .unwrap();
         }
         let e = estimate(&p, &proj, &["pile-dem-g".to_string()]).unwrap();
         let par = |pl: &Pipeline, id: &str, k: &str| num(&pl.get(id).unwrap().params, k).unwrap();
@@ -389,7 +529,9 @@ mod tests {
         assert_eq!(grains(&p), par(&p, "psd-pile", "n"));
         let steps = |pl: &Pipeline| {
             let v = &pl.get("pile-dem-g").unwrap().params;
-            par(pl, "pile-dem-g", "stiffness_factor").sqrt() / par(pl, "pile-dem-g", "dem.dt") * list(v, "energies_mgd").len() as f64 * par(pl, "pile-dem-g", "stop.t_max")
+            par(pl, "pile-dem-g", "stiffness_factor").sqrt() / par(pl, "pile-dem-g", "dem.dt")
+                * list(v, "energies_mgd").len() as f64
+                * par(pl, "pile-dem-g", "stop.t_max")
         };
         let want = grains(&p) / grains(&q) * steps(&p) / steps(&q);
         let row = e.rows.iter().find(|r| r.id == "pile-dem-g").unwrap();

@@ -81,7 +81,8 @@ pub fn write_markers(dir: &Path, profile: &str, summary: &RunSummary) -> std::io
     let mut n = 0;
     for s in &summary.stages {
         if matches!(s.outcome, Outcome::Ran { .. } | Outcome::Cached) {
-            let body = serde_json::json!({ "stage": s.id, "key": s.key, "profile": profile, "peak_rss_mb": peak_rss_mb() });
+            let body =
+                serde_json::json!({ "stage": s.id, "key": s.key, "profile": profile, "peak_rss_mb": peak_rss_mb() });
             write_atomic(&dir.join(marker_name(&s.id, &s.key)), format!("{body}\n").as_bytes())?;
             n += 1;
         }
@@ -93,7 +94,14 @@ pub fn write_markers(dir: &Path, profile: &str, summary: &RunSummary) -> std::io
 /// workflow job runs one stage per process, so this is that stage's peak.
 pub fn peak_rss_mb() -> Option<f64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let kb: f64 = s.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.trim().trim_end_matches("kB").trim().parse().ok()?;
+    let kb: f64 = s
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))?
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
     Some(kb / 1024.0)
 }
 
@@ -103,8 +111,18 @@ pub fn peak_from_markers(dir: &Path, id: &str) -> Option<f64> {
     std::fs::read_dir(dir)
         .ok()?
         .flatten()
-        .filter(|e| e.file_name().to_string_lossy().strip_prefix(&prefix).is_some_and(|rest| rest.len() == 32 + ".done".len() && rest.ends_with(".done")))
-        .filter_map(|e| serde_json::from_slice::<serde_json::Value>(&std::fs::read(e.path()).ok()?).ok()?.get("peak_rss_mb")?.as_f64())
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .strip_prefix(&prefix)
+                .is_some_and(|rest| rest.len() == 32 + ".done".len() && rest.ends_with(".done"))
+        })
+        .filter_map(|e| {
+            serde_json::from_slice::<serde_json::Value>(&std::fs::read(e.path()).ok()?)
+                .ok()?
+                .get("peak_rss_mb")?
+                .as_f64()
+        })
         .reduce(f64::max)
 }
 
@@ -116,7 +134,10 @@ pub fn measured_from_record(report_dir: &Path, id: &str) -> Option<Measured> {
 /// Wall time and threads of a run record file.
 pub fn measured_from_record_file(path: &Path) -> Option<Measured> {
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
-    Some(Measured { wall_s: v.get("wall_s")?.as_f64()?, threads: v.get("threads").and_then(|t| t.as_u64()).unwrap_or(1).max(1) as usize })
+    Some(Measured {
+        wall_s: v.get("wall_s")?.as_f64()?,
+        threads: v.get("threads").and_then(|t| t.as_u64()).unwrap_or(1).max(1) as usize,
+    })
 }
 
 /// Single-quote for the shell.
@@ -136,7 +157,12 @@ fn rule_names(stages: &[Planned]) -> Vec<String> {
     stages
         .iter()
         .map(|s| {
-            let base: String = format!("stage_{}", s.id.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect::<String>());
+            let base: String = format!(
+                "stage_{}",
+                s.id.chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect::<String>()
+            );
             let mut name = base.clone();
             let mut i = 2;
             while !seen.insert(name.clone()) {
@@ -193,7 +219,12 @@ pub fn snakefile(stages: &[Planned], o: &ExportOptions) -> String {
             None => o.default_runtime_min,
         };
         f.push_str(&format!("rule {name}:\n"));
-        let ins: Vec<String> = s.inputs.iter().filter_map(|i| by_id.get(i.as_str())).map(|d| py(&marker(d))).collect();
+        let ins: Vec<String> = s
+            .inputs
+            .iter()
+            .filter_map(|i| by_id.get(i.as_str()))
+            .map(|d| py(&marker(d)))
+            .collect();
         if !ins.is_empty() {
             f.push_str("    input:\n");
             for i in ins {
@@ -203,8 +234,14 @@ pub fn snakefile(stages: &[Planned], o: &ExportOptions) -> String {
         f.push_str(&format!("    output:\n        {},\n", py(&marker(s))));
         f.push_str(&format!("    threads: {threads}\n"));
         // Memory: twice the peak an earlier worker measured, at least 1000 MB.
-        let mem_mb = o.peak_mb.get(&s.id).map(|p| ((2.0 * p).ceil() as u64).max(1000)).unwrap_or(o.mem_mb);
-        f.push_str(&format!("    resources:\n        runtime={runtime},\n        mem_mb={mem_mb},\n"));
+        let mem_mb = o
+            .peak_mb
+            .get(&s.id)
+            .map(|p| ((2.0 * p).ceil() as u64).max(1000))
+            .unwrap_or(o.mem_mb);
+        f.push_str(&format!(
+            "    resources:\n        runtime={runtime},\n        mem_mb={mem_mb},\n"
+        ));
         let cmd = format!(
             "RAYON_NUM_THREADS={{threads}} {} run --only {} --profile {} --quiet --markers {}",
             cmd_head.replace('{', "{{").replace('}', "}}"),
@@ -222,14 +259,33 @@ mod tests {
     use super::*;
 
     fn st(id: &str, key: &str, inputs: &[&str]) -> Planned {
-        Planned { id: id.into(), kind: "psd".into(), key: key.into(), inputs: inputs.iter().map(|s| s.to_string()).collect(), cached: false, why: None }
+        Planned {
+            id: id.into(),
+            kind: "psd".into(),
+            key: key.into(),
+            inputs: inputs.iter().map(|s| s.to_string()).collect(),
+            cached: false,
+            why: None,
+        }
     }
 
     #[test]
     fn rules_chain_markers_and_take_resources_from_records() {
         let mut measured = BTreeMap::new();
-        measured.insert("b".to_string(), Measured { wall_s: 600.0, threads: 2 });
-        measured.insert("a".to_string(), Measured { wall_s: 0.01, threads: 2 });
+        measured.insert(
+            "b".to_string(),
+            Measured {
+                wall_s: 600.0,
+                threads: 2,
+            },
+        );
+        measured.insert(
+            "a".to_string(),
+            Measured {
+                wall_s: 0.01,
+                threads: 2,
+            },
+        );
         let o = ExportOptions {
             profile: "quick".into(),
             bin: "/opt/granrepro".into(),
@@ -242,14 +298,20 @@ mod tests {
             default_runtime_min: 720,
             measured,
         };
-        let s = snakefile(&[st("a", "k1", &[]), st("b", "k2", &["a"]), st("c-1", "k3", &["a", "b"])], &o);
+        let s = snakefile(
+            &[st("a", "k1", &[]), st("b", "k2", &["a"]), st("c-1", "k3", &["a", "b"])],
+            &o,
+        );
         assert!(s.contains("rule stage_b:\n    input:\n        \".granrepro/markers/quick/a.k1.done\",\n    output:\n        \".granrepro/markers/quick/b.k2.done\",\n    threads: 2\n"), "{s}");
         // a cheap stage gets one thread; b: 2 × 600 s → 20 min + 10.
         assert!(s.contains("rule stage_a:\n    output:\n        \".granrepro/markers/quick/a.k1.done\",\n    threads: 1\n    resources:\n        runtime=11,"), "{s}");
         assert!(s.contains("runtime=30,\n        mem_mb=1401,"), "{s}");
         assert!(s.contains("runtime=11,\n        mem_mb=2000,"), "{s}");
         // no record: the stated defaults.
-        assert!(s.contains("rule stage_c_1:") && s.contains("    threads: 4\n    resources:\n        runtime=720,"), "{s}");
+        assert!(
+            s.contains("rule stage_c_1:") && s.contains("    threads: 4\n    resources:\n        runtime=720,"),
+            "{s}"
+        );
         assert!(s.contains("--cache '/shared/cache' run --only 'c-1' --profile 'quick' --quiet --markers '.granrepro/markers/quick'"), "{s}");
     }
 
@@ -259,13 +321,28 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let summary = RunSummary {
             stages: vec![
-                StageReport { id: "a".into(), key: "0123456789abcdef0123456789abcdef".into(), outcome: Outcome::Cached },
-                StageReport { id: "b".into(), key: "k2".into(), outcome: Outcome::Ran { wall_s: 1.0 } },
-                StageReport { id: "c".into(), key: "k3".into(), outcome: Outcome::Failed("x".into()) },
+                StageReport {
+                    id: "a".into(),
+                    key: "0123456789abcdef0123456789abcdef".into(),
+                    outcome: Outcome::Cached,
+                },
+                StageReport {
+                    id: "b".into(),
+                    key: "k2".into(),
+                    outcome: Outcome::Ran { wall_s: 1.0 },
+                },
+                StageReport {
+                    id: "c".into(),
+                    key: "k3".into(),
+                    outcome: Outcome::Failed("x".into()),
+                },
             ],
         };
         assert_eq!(write_markers(dir.path(), "quick", &summary).unwrap(), 2);
-        assert!(dir.path().join("a.0123456789abcdef0123456789abcdef.done").is_file() && dir.path().join("b.k2.done").is_file());
+        assert!(
+            dir.path().join("a.0123456789abcdef0123456789abcdef.done").is_file()
+                && dir.path().join("b.k2.done").is_file()
+        );
         assert!(!dir.path().join("c.k3.done").exists());
         if cfg!(target_os = "linux") {
             let peak = peak_from_markers(dir.path(), "a");

@@ -27,7 +27,8 @@ pub fn set_mode(path: &Path, mode: u32) -> io::Result<()> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).map_err(err_at("cannot set the permissions of", path))
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
+            .map_err(err_at("cannot set the permissions of", path))
     }
     #[cfg(not(unix))]
     {
@@ -63,8 +64,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     };
     create_dir_all(dir)?;
     let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(err_at("cannot create a temp file in", dir))?;
-    tmp.write_all(bytes).map_err(err_at("cannot write a temp file for", path))?;
-    tmp.as_file().sync_all().map_err(err_at("cannot sync a temp file for", path))?;
+    tmp.write_all(bytes)
+        .map_err(err_at("cannot write a temp file for", path))?;
+    tmp.as_file()
+        .sync_all()
+        .map_err(err_at("cannot sync a temp file for", path))?;
     set_mode(tmp.path(), FILE_MODE)?;
     tmp.persist(path).map_err(|e| at("cannot replace", path, e.error))?;
     Ok(())
@@ -81,7 +85,12 @@ pub fn lock(path: &Path) -> io::Result<Lock> {
     if let Some(d) = path.parent() {
         create_dir_all(d)?;
     }
-    let f = OpenOptions::new().create(true).truncate(false).write(true).open(path).map_err(err_at("cannot open the lock file", path))?;
+    let f = OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(path)
+        .map_err(err_at("cannot open the lock file", path))?;
     f.lock().map_err(err_at("cannot lock", path))?;
     Ok(Lock { _file: f })
 }
@@ -90,7 +99,10 @@ pub fn lock(path: &Path) -> io::Result<Lock> {
 /// it to a unique `.trash-*` sibling first, then delete that.
 pub fn discard_dir(dir: &Path) -> io::Result<()> {
     let parent = dir.parent().unwrap_or(Path::new("."));
-    let name = dir.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
     let trash: PathBuf = parent.join(format!(".trash-{name}-{}-{}", std::process::id(), unique()));
     match std::fs::rename(dir, &trash) {
         Ok(()) => std::fs::remove_dir_all(&trash).map_err(err_at("cannot remove", &trash)),
@@ -103,7 +115,10 @@ pub fn discard_dir(dir: &Path) -> io::Result<()> {
 pub fn unique() -> u64 {
     use std::sync::atomic::{AtomicU64, Ordering};
     static N: AtomicU64 = AtomicU64::new(0);
-    let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.subsec_nanos() as u64).unwrap_or(0);
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos() as u64)
+        .unwrap_or(0);
     (N.fetch_add(1, Ordering::Relaxed) << 32) ^ t
 }
 

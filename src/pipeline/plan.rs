@@ -29,7 +29,13 @@ pub struct Planned {
 /// The stages `targets` need (all when empty), inputs first, with keys. Unknown targets
 /// are a [`RunError::BadInput`].
 pub fn plan(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Vec<Planned>, RunError> {
-    let opts = RunOptions { targets: targets.to_vec(), dry_run: true, jobs: 1, quiet: true, ..RunOptions::default() };
+    let opts = RunOptions {
+        targets: targets.to_vec(),
+        dry_run: true,
+        jobs: 1,
+        quiet: true,
+        ..RunOptions::default()
+    };
     let summary = run(p, proj, &opts)?;
     Ok(summary
         .stages
@@ -41,7 +47,14 @@ pub fn plan(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Vec<Plan
                 Outcome::WouldRun(w) => (false, Some(w)),
                 other => (false, Some(format!("{other:?}"))),
             };
-            Planned { id: s.id, kind: st.kind.clone(), key: s.key, inputs: st.inputs.iter().flat_map(|(_, v)| v.iter().cloned()).collect(), cached, why }
+            Planned {
+                id: s.id,
+                kind: st.kind.clone(),
+                key: s.key,
+                inputs: st.inputs.iter().flat_map(|(_, v)| v.iter().cloned()).collect(),
+                cached,
+                why,
+            }
         })
         .collect())
 }
@@ -60,15 +73,28 @@ pub fn to_json(p: &Pipeline, proj: &Project, stages: &[Planned]) -> Value {
 }
 
 fn abs(p: &std::path::Path) -> String {
-    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()).display().to_string()
+    std::path::absolute(p)
+        .unwrap_or_else(|_| p.to_path_buf())
+        .display()
+        .to_string()
 }
 
 /// The plan as text: one line per stage (order, state, id, key, inputs).
 pub fn to_text(stages: &[Planned]) -> String {
     let mut s = String::new();
     for (i, st) in stages.iter().enumerate() {
-        let inputs = if st.inputs.is_empty() { String::new() } else { format!("  <- {}", st.inputs.join(", ")) };
-        s.push_str(&format!("{:>3}  {:<9} {:<34} {}{inputs}\n", i + 1, if st.cached { "cached" } else { "to run" }, st.id, st.key));
+        let inputs = if st.inputs.is_empty() {
+            String::new()
+        } else {
+            format!("  <- {}", st.inputs.join(", "))
+        };
+        s.push_str(&format!(
+            "{:>3}  {:<9} {:<34} {}{inputs}\n",
+            i + 1,
+            if st.cached { "cached" } else { "to run" },
+            st.id,
+            st.key
+        ));
     }
     s
 }
@@ -95,6 +121,9 @@ mod tests {
             assert!(!s.cached);
         }
         assert_eq!(st[1].inputs, ["psd-a"]);
-        assert!(matches!(plan(&p, &proj, &["nope".to_string()]), Err(RunError::BadInput(_))));
+        assert!(matches!(
+            plan(&p, &proj, &["nope".to_string()]),
+            Err(RunError::BadInput(_))
+        ));
     }
 }

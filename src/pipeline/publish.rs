@@ -45,7 +45,8 @@ fn stamp(file: &str, id: &str, bytes: Vec<u8>, overrides: &[String], path: &Path
     if file != "result.json" && file != "record.json" {
         return Ok(bytes);
     }
-    let mut v: Value = serde_json::from_slice(&bytes).map_err(|e| fsio::at("cannot parse", path, io::Error::other(e)))?;
+    let mut v: Value =
+        serde_json::from_slice(&bytes).map_err(|e| fsio::at("cannot parse", path, io::Error::other(e)))?;
     if file == "result.json" {
         // The entry may be shared by stages doing the same work: stamp our id.
         v["stage"] = Value::String(id.to_string());
@@ -53,7 +54,10 @@ fn stamp(file: &str, id: &str, bytes: Vec<u8>, overrides: &[String], path: &Path
     if !overrides.is_empty() {
         v["overrides"] = serde_json::json!(overrides);
         if file == "record.json" {
-            let note = format!("OVERRIDDEN on the command line (--set): {} — not the values in pipeline.yaml", overrides.join(", "));
+            let note = format!(
+                "OVERRIDDEN on the command line (--set): {} — not the values in pipeline.yaml",
+                overrides.join(", ")
+            );
             match v.get_mut("notes").and_then(|n| n.as_array_mut()) {
                 Some(a) => a.insert(0, Value::String(note)),
                 None => v["notes"] = serde_json::json!([note]),
@@ -65,7 +69,9 @@ fn stamp(file: &str, id: &str, bytes: Vec<u8>, overrides: &[String], path: &Path
 
 /// Write "OVERRIDDEN (--set …)" in red across the top of a published figure.
 fn mark_svg(bytes: Vec<u8>, overrides: &[String]) -> Vec<u8> {
-    let Ok(text) = String::from_utf8(bytes.clone()) else { return bytes };
+    let Ok(text) = String::from_utf8(bytes.clone()) else {
+        return bytes;
+    };
     let Some(end) = text.rfind("</svg>") else { return bytes };
     let esc = |s: &str| s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
     let mark = format!(
@@ -89,14 +95,29 @@ pub struct Measured<'a> {
 }
 
 /// Publish the cache entry `key` as stage `id`'s set in `dir` (= `reports/<profile>`).
-pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[String], measured: Option<&Measured>) -> io::Result<()> {
+pub fn publish(
+    cache: &Cache,
+    dir: &Path,
+    id: &str,
+    key: &str,
+    overrides: &[String],
+    measured: Option<&Measured>,
+) -> io::Result<()> {
     let entry = cache.entry_dir(key);
-    let files = cache.entry_files(key).map_err(|why| fsio::at("cannot publish the cache entry", &entry, io::Error::other(why)))?;
+    let files = cache
+        .entry_files(key)
+        .map_err(|why| fsio::at("cannot publish the cache entry", &entry, io::Error::other(why)))?;
     // the stage's methods, from its run record
     let stamp_of = measured.map(|m| {
-        let rec: Value = fsio::read(&entry.join("record.json")).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or(Value::Null);
+        let rec: Value = fsio::read(&entry.join("record.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or(Value::Null);
         let ms = crate::report::measured::methods(&rec);
-        (crate::report::measured::footer_line(m.profile, &ms, m.errors), crate::report::measured::json_block(m.profile, &ms, m.errors))
+        (
+            crate::report::measured::footer_line(m.profile, &ms, m.errors),
+            crate::report::measured::json_block(m.profile, &ms, m.errors),
+        )
     });
     let sets = dir.join(SETS);
     fsio::create_dir_all(&sets)?;
@@ -111,16 +132,21 @@ pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[Stri
             if f.ends_with(".svg") {
                 bytes = crate::report::measured::stamp_svg(bytes, line);
             } else if f == "result.json" {
-                let mut v: Value = serde_json::from_slice(&bytes).map_err(|e| fsio::at("cannot parse", &src, io::Error::other(e)))?;
+                let mut v: Value =
+                    serde_json::from_slice(&bytes).map_err(|e| fsio::at("cannot parse", &src, io::Error::other(e)))?;
                 v["measured"] = block.clone();
-                bytes = serde_json::to_vec_pretty(&v).map_err(|e| fsio::at("cannot serialize", &src, io::Error::other(e)))?;
+                bytes = serde_json::to_vec_pretty(&v)
+                    .map_err(|e| fsio::at("cannot serialize", &src, io::Error::other(e)))?;
             }
         }
         content.insert(published_name(id, f), bytes);
     }
     let mut h = blake3::Hasher::new();
     for (n, b) in &content {
-        h.update(n.as_bytes()).update(&[0]).update(&(b.len() as u64).to_le_bytes()).update(b);
+        h.update(n.as_bytes())
+            .update(&[0])
+            .update(&(b.len() as u64).to_le_bytes())
+            .update(b);
     }
     let set_name = format!("{id}@{}", &h.finalize().to_hex()[..16]);
     // 2. Write it completely under a temp name, then give it its final name.
@@ -153,7 +179,9 @@ pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[Stri
             return Err(fsio::at(
                 &format!("stage `{id}` cannot publish"),
                 &flat,
-                io::Error::other(format!("that name is already published by stage `{other}`; rename one of the stages")),
+                io::Error::other(format!(
+                    "that name is already published by stage `{other}`; rename one of the stages"
+                )),
             ));
         }
         if current.as_deref() != Some(target.as_path()) {
@@ -166,7 +194,13 @@ pub fn publish(cache: &Cache, dir: &Path, id: &str, key: &str, overrides: &[Stri
         }
     }
     // 5. Keep the current and the previous set; remove older ones.
-    let keep: HashSet<String> = [Some(set_name.clone()), previous.map(|p| p.to_string_lossy().to_string())].into_iter().flatten().collect();
+    let keep: HashSet<String> = [
+        Some(set_name.clone()),
+        previous.map(|p| p.to_string_lossy().to_string()),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     for old in sets_of(&sets, id) {
         if !keep.contains(&old) {
             let p = sets.join(&old);
@@ -186,7 +220,11 @@ pub fn sweep_stale(dir: &Path, age: std::time::Duration) -> usize {
             if !e.file_name().to_string_lossy().starts_with(".tmp-") || !fsio::older_than(&p, age) {
                 continue;
             }
-            let removed = if e.file_type().is_ok_and(|t| t.is_dir()) { std::fs::remove_dir_all(&p) } else { std::fs::remove_file(&p) };
+            let removed = if e.file_type().is_ok_and(|t| t.is_dir()) {
+                std::fs::remove_dir_all(&p)
+            } else {
+                std::fs::remove_file(&p)
+            };
             n += usize::from(removed.is_ok());
         }
     }
@@ -207,7 +245,11 @@ fn replace_symlink(target: &Path, link: &Path) -> io::Result<()> {
 
 #[cfg(not(unix))]
 fn replace_symlink(_target: &Path, link: &Path) -> io::Result<()> {
-    Err(fsio::at("cannot publish", link, io::Error::other("publishing reports as a set needs symlinks (a unix system)")))
+    Err(fsio::at(
+        "cannot publish",
+        link,
+        io::Error::other("publishing reports as a set needs symlinks (a unix system)"),
+    ))
 }
 
 /// The stage a flat symlink target `.sets/<id>/<file>` belongs to.
@@ -300,12 +342,16 @@ pub const INDEX_MARK: &str = "<!doctype html><html><head><meta charset=\"utf-8\"
 /// it is empty. Returns what was removed; other files are never touched.
 pub fn clean_reports(dir: &Path) -> io::Result<Vec<PathBuf>> {
     let mut removed = Vec::new();
-    let Ok(rd) = std::fs::read_dir(dir) else { return Ok(removed) };
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return Ok(removed);
+    };
     for e in rd.flatten() {
         let p = e.path();
         let ours = match std::fs::read_link(&p) {
             Ok(t) => t.starts_with(SETS),
-            Err(_) => e.file_name() == "index.html" && std::fs::read(&p).is_ok_and(|b| b.starts_with(INDEX_MARK.as_bytes())),
+            Err(_) => {
+                e.file_name() == "index.html" && std::fs::read(&p).is_ok_and(|b| b.starts_with(INDEX_MARK.as_bytes()))
+            }
         };
         if ours {
             std::fs::remove_file(&p).map_err(fsio::err_at("cannot remove", &p))?;

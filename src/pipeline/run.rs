@@ -111,15 +111,25 @@ pub struct RunSummary {
 impl RunSummary {
     /// Ids of stages computed in this run.
     pub fn ran(&self) -> Vec<&str> {
-        self.stages.iter().filter(|s| matches!(s.outcome, Outcome::Ran { .. })).map(|s| s.id.as_str()).collect()
+        self.stages
+            .iter()
+            .filter(|s| matches!(s.outcome, Outcome::Ran { .. }))
+            .map(|s| s.id.as_str())
+            .collect()
     }
     /// Ids of stages served from cache.
     pub fn cached(&self) -> Vec<&str> {
-        self.stages.iter().filter(|s| s.outcome == Outcome::Cached).map(|s| s.id.as_str()).collect()
+        self.stages
+            .iter()
+            .filter(|s| s.outcome == Outcome::Cached)
+            .map(|s| s.id.as_str())
+            .collect()
     }
     /// Did any stage fail?
     pub fn failed(&self) -> bool {
-        self.stages.iter().any(|s| matches!(s.outcome, Outcome::Failed(_) | Outcome::Skipped(_)))
+        self.stages
+            .iter()
+            .any(|s| matches!(s.outcome, Outcome::Failed(_) | Outcome::Skipped(_)))
     }
 }
 
@@ -141,9 +151,20 @@ pub fn key_records(p: &Pipeline) -> HashMap<String, (KeyRecord, String)> {
         let inputs = s
             .inputs
             .iter()
-            .map(|(role, ids)| (role.clone(), ids.iter().map(|id| (id.clone(), out[id].1.clone())).collect()))
+            .map(|(role, ids)| {
+                (
+                    role.clone(),
+                    ids.iter().map(|id| (id.clone(), out[id].1.clone())).collect(),
+                )
+            })
             .collect();
-        let rec = KeyRecord { kind: s.kind.clone(), version: s.version, params: s.params.clone(), profile: p.profile.clone(), inputs };
+        let rec = KeyRecord {
+            kind: s.kind.clone(),
+            version: s.version,
+            params: s.params.clone(),
+            profile: p.profile.clone(),
+            inputs,
+        };
         let key = rec.key();
         out.insert(s.id.clone(), (rec, key));
     }
@@ -172,7 +193,11 @@ pub fn stale_reasons(old: &KeyRecord, new: &KeyRecord) -> Vec<String> {
             r.push(format!("params.{k} removed"));
         }
     }
-    let oi: HashMap<&str, &str> = old.inputs.iter().flat_map(|(_, v)| v.iter().map(|(i, k)| (i.as_str(), k.as_str()))).collect();
+    let oi: HashMap<&str, &str> = old
+        .inputs
+        .iter()
+        .flat_map(|(_, v)| v.iter().map(|(i, k)| (i.as_str(), k.as_str())))
+        .collect();
     for (_, v) in &new.inputs {
         for (id, k) in v {
             match oi.get(id.as_str()) {
@@ -193,7 +218,15 @@ fn flatten(v: &Value) -> BTreeMap<String, String> {
         match v {
             Value::Object(m) => {
                 for (k, x) in m {
-                    go(&if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") }, x, out);
+                    go(
+                        &if prefix.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{prefix}.{k}")
+                        },
+                        x,
+                        out,
+                    );
                 }
             }
             other => {
@@ -230,7 +263,10 @@ pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
                     None => Freshness::Fresh,
                 }
             } else {
-                match std::fs::read(proj.state_file(&p.profile, &s.id)).ok().and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok()) {
+                match std::fs::read(proj.state_file(&p.profile, &s.id))
+                    .ok()
+                    .and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok())
+                {
                     Some(old) => Freshness::Stale(stale_reasons(&old, rec)),
                     None => Freshness::Missing,
                 }
@@ -246,7 +282,12 @@ pub fn clean_state(proj: &Project, profile: Option<&str>) -> std::io::Result<Vec
     let mut msgs = Vec::new();
     let n = proj.cache.clean(profile)?;
     if n > 0 {
-        msgs.push(format!("removed {n} cache entr{} {}from {}", if n == 1 { "y" } else { "ies" }, profile.map(|p| format!("of profile `{p}` ")).unwrap_or_default(), proj.cache.root().display()));
+        msgs.push(format!(
+            "removed {n} cache entr{} {}from {}",
+            if n == 1 { "y" } else { "ies" },
+            profile.map(|p| format!("of profile `{p}` ")).unwrap_or_default(),
+            proj.cache.root().display()
+        ));
     }
     let profiles: Vec<&str> = match profile {
         Some(p) => vec![p],
@@ -264,7 +305,10 @@ pub fn clean_state(proj: &Project, profile: Option<&str>) -> std::io::Result<Vec
         }
         let _ = std::fs::remove_dir(&dir);
         if k > 0 {
-            msgs.push(format!("removed the state of {k} stage(s) of profile `{p}` from {}", dir.display()));
+            msgs.push(format!(
+                "removed the state of {k} stage(s) of profile `{p}` from {}",
+                dir.display()
+            ));
         }
     }
     for d in [proj.state.clone(), proj.root.join(".granrepro")] {
@@ -279,12 +323,18 @@ pub fn clean_state(proj: &Project, profile: Option<&str>) -> std::io::Result<Vec
 /// When `reports/` holds another run of a stage than the cache entry `key` (e.g. one
 /// made with `--set`), say so: the reports are not what the pipeline now gives.
 fn published_elsewhere(proj: &Project, profile: &str, id: &str, key: &str) -> Option<String> {
-    let rec: Value = serde_json::from_slice(&std::fs::read(proj.report_dir(profile).join(format!("{id}.record.json"))).ok()?).ok()?;
+    let rec: Value =
+        serde_json::from_slice(&std::fs::read(proj.report_dir(profile).join(format!("{id}.record.json"))).ok()?)
+            .ok()?;
     let published = rec.get("key").and_then(|k| k.as_str())?;
     if published == key {
         return None;
     }
-    let over = rec.get("overrides").and_then(|o| o.as_array()).map(|a| a.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", ")).unwrap_or_default();
+    let over = rec
+        .get("overrides")
+        .and_then(|o| o.as_array())
+        .map(|a| a.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", "))
+        .unwrap_or_default();
     Some(if over.is_empty() {
         "cached, but reports/ hold another run; `granrepro run` publishes this one".to_string()
     } else {
@@ -300,7 +350,9 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
         for o in &opts.only {
             let m = p.members(o);
             if m.is_empty() {
-                return Err(RunError::BadInput(format!("--only {o}: no such stage (see `granrepro list`)")));
+                return Err(RunError::BadInput(format!(
+                    "--only {o}: no such stage (see `granrepro list`)"
+                )));
             }
             v.extend(m.into_iter().map(str::to_string));
         }
@@ -326,13 +378,28 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                 missing.join(", ")
             )));
         }
-        p.stages.iter().filter(|s| v.contains(&s.id)).map(|s| s.id.clone()).collect()
+        p.stages
+            .iter()
+            .filter(|s| v.contains(&s.id))
+            .map(|s| s.id.clone())
+            .collect()
     } else {
-        closure(p, &opts.targets).map_err(|u| RunError::BadInput(format!("unknown stage(s): {} (see `granrepro list`)", u.join(", "))))?
+        closure(p, &opts.targets)
+            .map_err(|u| RunError::BadInput(format!("unknown stage(s): {} (see `granrepro list`)", u.join(", "))))?
     };
     let forced: HashSet<String> = if opts.force {
-        let t = if !opts.only.is_empty() { &opts.only } else { &opts.targets };
-        if t.is_empty() { set.iter().cloned().collect() } else { t.iter().flat_map(|x| p.members(x).into_iter().map(str::to_string)).collect() }
+        let t = if !opts.only.is_empty() {
+            &opts.only
+        } else {
+            &opts.targets
+        };
+        if t.is_empty() {
+            set.iter().cloned().collect()
+        } else {
+            t.iter()
+                .flat_map(|x| p.members(x).into_iter().map(str::to_string))
+                .collect()
+        }
     } else {
         HashSet::new()
     };
@@ -346,18 +413,31 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
             } else if proj.cache.verify(&proj.cache.entry_dir(&key), &key).is_ok() {
                 Outcome::Cached
             } else {
-                Outcome::WouldRun(match std::fs::read(proj.state_file(&p.profile, id)).ok().and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok()) {
-                    Some(old) => stale_reasons(&old, &keys[id].0).join("; "),
-                    None => "never ran".into(),
-                })
+                Outcome::WouldRun(
+                    match std::fs::read(proj.state_file(&p.profile, id))
+                        .ok()
+                        .and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok())
+                    {
+                        Some(old) => stale_reasons(&old, &keys[id].0).join("; "),
+                        None => "never ran".into(),
+                    },
+                )
             };
-            summary.stages.push(StageReport { id: id.clone(), key, outcome });
+            summary.stages.push(StageReport {
+                id: id.clone(),
+                key,
+                outcome,
+            });
         }
         return Ok(summary);
     }
 
     proj.cache.sweep_stale(STALE_TMP_AGE);
-    let mp = MultiProgress::with_draw_target(if opts.quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
+    let mp = MultiProgress::with_draw_target(if opts.quiet {
+        ProgressDrawTarget::hidden()
+    } else {
+        ProgressDrawTarget::stderr()
+    });
     let jobs = opts.jobs.max(1); // the CLI refuses 0
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let in_set: HashSet<&String> = set.iter().collect();
@@ -374,10 +454,19 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                     continue;
                 }
                 let st = p.get(id).unwrap();
-                let deps: Vec<&String> = st.inputs.iter().flat_map(|(_, v)| v.iter()).filter(|d| in_set.contains(d)).collect();
+                let deps: Vec<&String> = st
+                    .inputs
+                    .iter()
+                    .flat_map(|(_, v)| v.iter())
+                    .filter(|d| in_set.contains(d))
+                    .collect();
                 if let Some(bad) = deps.iter().find(|d| done.get(**d) == Some(&false)) {
                     done.insert(id.clone(), false);
-                    summary.stages.push(StageReport { id: id.clone(), key: keys[id].1.clone(), outcome: Outcome::Skipped(format!("input `{bad}` failed")) });
+                    summary.stages.push(StageReport {
+                        id: id.clone(),
+                        key: keys[id].1.clone(),
+                        outcome: Outcome::Skipped(format!("input `{bad}` failed")),
+                    });
                     progressed = true;
                     continue;
                 }
@@ -390,7 +479,11 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                         Lookup::Fresh(_) => {
                             write_state(proj, &p.profile, id, &keys[id].0);
                             done.insert(id.clone(), true);
-                            summary.stages.push(StageReport { id: id.clone(), key, outcome: Outcome::Cached });
+                            summary.stages.push(StageReport {
+                                id: id.clone(),
+                                key,
+                                outcome: Outcome::Cached,
+                            });
                             if !opts.quiet {
                                 say(&mp, format!("  cached  {id}"));
                             }
@@ -398,7 +491,10 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                             continue;
                         }
                         Lookup::Corrupt(why) => {
-                            say(&mp, format!("warning: cache entry of `{id}` was corrupt ({why}); recomputing"));
+                            say(
+                                &mp,
+                                format!("warning: cache entry of `{id}` was corrupt ({why}); recomputing"),
+                            );
                         }
                         Lookup::Missing => {}
                     }
@@ -423,13 +519,21 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                 progressed = true;
                 let tx = tx.clone();
                 let pb = mp.add(ProgressBar::new(1000));
-                pb.set_style(ProgressStyle::with_template("{prefix:>24} [{bar:30}] {percent:>3}% {elapsed_precise} ETA {eta}").unwrap().progress_chars("=> "));
+                pb.set_style(
+                    ProgressStyle::with_template("{prefix:>24} [{bar:30}] {percent:>3}% {elapsed_precise} ETA {eta}")
+                        .unwrap()
+                        .progress_chars("=> "),
+                );
                 pb.set_prefix(id.clone());
                 let keys = &keys;
                 let stage = st.clone();
                 let replace = forced.contains(id);
                 scope.spawn(move || {
-                    let r = match rayon::ThreadPoolBuilder::new().num_threads(threads).thread_name(|i| format!("stage-worker-{i}")).build() {
+                    let r = match rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .thread_name(|i| format!("stage-worker-{i}"))
+                        .build()
+                    {
                         Ok(pool) => pool.install(|| run_one(p, proj, &stage, keys, pb.clone(), replace)),
                         Err(e) => Err(format!("cannot start a thread pool of {threads} thread(s): {e}")),
                     };
@@ -453,15 +557,29 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                             // Deterministic stages reproduce their entry byte for byte; a
                             // difference is a code change without a version bump, or a
                             // stage whose outputs hold measured times (work-precision).
-                            say(&mp, format!("  note    {id}: the forced re-run replaced its cache entry; files that differ from the old one: {}", changed.join(", ")));
+                            say(
+                                &mp,
+                                format!(
+                                    "  note    {id}: the forced re-run replaced its cache entry; files that differ from the old one: {}",
+                                    changed.join(", ")
+                                ),
+                            );
                         }
                         done.insert(id.clone(), true);
-                        summary.stages.push(StageReport { id, key, outcome: Outcome::Ran { wall_s } });
+                        summary.stages.push(StageReport {
+                            id,
+                            key,
+                            outcome: Outcome::Ran { wall_s },
+                        });
                     }
                     Err(msg) => {
                         say(&mp, format!("  FAILED  {id}: {msg}"));
                         done.insert(id.clone(), false);
-                        summary.stages.push(StageReport { id, key, outcome: Outcome::Failed(msg) });
+                        summary.stages.push(StageReport {
+                            id,
+                            key,
+                            outcome: Outcome::Failed(msg),
+                        });
                     }
                 }
             }
@@ -474,13 +592,22 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
 /// Withdraw the outputs of stages no longer in the pipeline, publish every stage with a
 /// valid entry (each as one set), withdraw the outputs of failed or skipped stages
 /// (nothing stale stays on show), then rebuild the index from the pipeline's stage list.
-fn publish_all(p: &Pipeline, proj: &Project, summary: &RunSummary, mp: &MultiProgress, quiet: bool) -> Result<(), RunError> {
+fn publish_all(
+    p: &Pipeline,
+    proj: &Project,
+    summary: &RunSummary,
+    mp: &MultiProgress,
+    quiet: bool,
+) -> Result<(), RunError> {
     let dir = proj.report_dir(&p.profile);
     publish::sweep_stale(&dir, STALE_TMP_AGE);
     let ids: HashSet<&str> = p.stages.iter().map(|s| s.id.as_str()).collect();
     for gone in publish::drop_removed(&dir, &ids)? {
         if !quiet {
-            say(mp, format!("  removed the reports of `{gone}` (no longer in {})", p.path.display()));
+            say(
+                mp,
+                format!("  removed the reports of `{gone}` (no longer in {})", p.path.display()),
+            );
         }
     }
     // The profile's measured errors for every figure's footer and JSON: the `wp-summary`
@@ -498,9 +625,13 @@ fn publish_all(p: &Pipeline, proj: &Project, summary: &RunSummary, mp: &MultiPro
             let id = p.stages.iter().find(|s| s.kind == "wp-summary")?.id.clone();
             std::fs::read_to_string(dir.join(format!("{id}-profile.csv"))).ok()
         });
-        text.map(|t| crate::report::measured::parse_profile_csv(&t)).unwrap_or_default()
+        text.map(|t| crate::report::measured::parse_profile_csv(&t))
+            .unwrap_or_default()
     };
-    let measured = publish::Measured { profile: &p.profile, errors: &errors };
+    let measured = publish::Measured {
+        profile: &p.profile,
+        errors: &errors,
+    };
     for r in &summary.stages {
         match r.outcome {
             Outcome::Cached | Outcome::Ran { .. } => {
@@ -509,7 +640,13 @@ fn publish_all(p: &Pipeline, proj: &Project, summary: &RunSummary, mp: &MultiPro
             }
             Outcome::Failed(_) | Outcome::Skipped(_) => {
                 if !publish::unpublish(&dir, &r.id)?.is_empty() {
-                    say(mp, format!("  withdrew the previous reports of `{}` (it did not complete; its old results stay in the cache)", r.id));
+                    say(
+                        mp,
+                        format!(
+                            "  withdrew the previous reports of `{}` (it did not complete; its old results stay in the cache)",
+                            r.id
+                        ),
+                    );
                 }
             }
             Outcome::WouldRun(_) => {}
@@ -539,7 +676,14 @@ fn write_state(proj: &Project, profile: &str, id: &str, rec: &KeyRecord) {
 
 /// Run one stage and store its entry; the wall time and, for a forced re-run (`replace`),
 /// the files whose bytes differ from the entry it replaced.
-fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (KeyRecord, String)>, pb: ProgressBar, replace: bool) -> Result<(f64, Vec<String>), String> {
+fn run_one(
+    p: &Pipeline,
+    proj: &Project,
+    st: &Stage,
+    keys: &HashMap<String, (KeyRecord, String)>,
+    pb: ProgressBar,
+    replace: bool,
+) -> Result<(f64, Vec<String>), String> {
     let (rec, key) = &keys[&st.id];
     // Clear the old state first so an interrupted run can never look fresh.
     let _ = std::fs::remove_file(proj.state_file(&p.profile, &st.id));
@@ -548,7 +692,11 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
     for (role, ids) in &st.inputs {
         let v = ids
             .iter()
-            .map(|id| InputRef { id: id.clone(), dir: proj.cache.entry_dir(&keys[id].1), params: p.get(id).unwrap().params.clone() })
+            .map(|id| InputRef {
+                id: id.clone(),
+                dir: proj.cache.entry_dir(&keys[id].1),
+                params: p.get(id).unwrap().params.clone(),
+            })
             .collect();
         inputs.insert(role.clone(), v);
     }
@@ -561,7 +709,10 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
         progress: pb,
         threads: rayon::current_num_threads(),
     };
-    let started = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs_f64()).unwrap_or(0.0);
+    let started = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0);
     let t0 = Instant::now();
     let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (kind.run)(&ctx)));
     let wall_s = t0.elapsed().as_secs_f64();
@@ -569,7 +720,11 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
         Ok(Ok(o)) => o,
         Ok(Err(e)) => return Err(format!("{e:#}")),
         Err(panic) => {
-            let msg = panic.downcast_ref::<String>().cloned().or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_else(|| "panic".into());
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "panic".into());
             return Err(format!("internal error (panic): {msg}"));
         }
     };
@@ -585,7 +740,10 @@ fn run_one(p: &Pipeline, proj: &Project, st: &Stage, keys: &HashMap<String, (Key
         "wall_s": wall_s, "threads": ctx.threads, "started_unix_s": started,
         "granrepro_version": env!("CARGO_PKG_VERSION"), "caption": st.caption, "notes": out.notes,
     });
-    let (_, changed) = proj.cache.store(key, &st.id, &p.profile, &mut out, &record, replace).map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
+    let (_, changed) = proj
+        .cache
+        .store(key, &st.id, &p.profile, &mut out, &record, replace)
+        .map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
     write_state(proj, &p.profile, &st.id, rec);
     Ok((wall_s, changed))
 }

@@ -80,17 +80,32 @@ pub struct Override {
 impl Override {
     /// Parse `STAGE.KEY=VALUE` (split at the first '.' until the pipeline's ids are known).
     pub fn parse(s: &str) -> Result<Override, String> {
-        let (lhs, rhs) = s.split_once('=').ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE"))?;
-        let (stage, key) = lhs.split_once('.').ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE (no '.' between stage and key)"))?;
+        let (lhs, rhs) = s
+            .split_once('=')
+            .ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE"))?;
+        let (stage, key) = lhs
+            .split_once('.')
+            .ok_or_else(|| format!("--set {s}: expected STAGE.KEY=VALUE (no '.' between stage and key)"))?;
         let value: Yaml = serde_yaml::from_str(rhs).map_err(|e| format!("--set {s}: value is not valid YAML: {e}"))?;
-        Ok(Override { stage: stage.to_string(), key: key.to_string(), value })
+        Ok(Override {
+            stage: stage.to_string(),
+            key: key.to_string(),
+            value,
+        })
     }
     /// Re-split `STAGE.KEY` so STAGE is the longest of `ids` that fits.
     fn resolve(&self, ids: &std::collections::HashSet<String>) -> Override {
         let lhs = format!("{}.{}", self.stage, self.key);
-        let best = ids.iter().filter(|id| lhs.len() > id.len() + 1 && lhs.starts_with(id.as_str()) && lhs.as_bytes()[id.len()] == b'.').max_by_key(|id| id.len());
+        let best = ids
+            .iter()
+            .filter(|id| lhs.len() > id.len() + 1 && lhs.starts_with(id.as_str()) && lhs.as_bytes()[id.len()] == b'.')
+            .max_by_key(|id| id.len());
         match best {
-            Some(id) => Override { stage: id.clone(), key: lhs[id.len() + 1..].to_string(), value: self.value.clone() },
+            Some(id) => Override {
+                stage: id.clone(),
+                key: lhs[id.len() + 1..].to_string(),
+                value: self.value.clone(),
+            },
             None => self.clone(),
         }
     }
@@ -150,7 +165,11 @@ impl Pipeline {
         if let Some(&i) = self.index.get(base) {
             return vec![self.stages[i].id.as_str()];
         }
-        self.stages.iter().filter(|s| s.base_id == base).map(|s| s.id.as_str()).collect()
+        self.stages
+            .iter()
+            .filter(|s| s.base_id == base)
+            .map(|s| s.id.as_str())
+            .collect()
     }
 }
 
@@ -267,12 +286,19 @@ type LayerRef = (PathBuf, Option<String>, Vec<String>, usize, Yaml);
 /// The file and line of the last layer that sets the dotted `key` (the stage entry
 /// when no layer does).
 fn attribute(layers: &[LayerRef], key: &str, path: &Path, line: Option<usize>) -> (PathBuf, Option<usize>) {
-    let parts: Vec<&str> = key.split(['.', '[']).filter(|s| !s.is_empty() && !s.ends_with(']')).collect();
+    let parts: Vec<&str> = key
+        .split(['.', '['])
+        .filter(|s| !s.is_empty() && !s.ends_with(']'))
+        .collect();
     for (f, t, prefix, anchor, v) in layers.iter().rev() {
         if parts.is_empty() || has_path(v, &parts) {
             let l = t.as_deref().and_then(|t| {
                 let rel: Vec<&str> = parts.iter().skip(prefix.len()).cloned().collect();
-                if rel.is_empty() { Some(*anchor) } else { locate(t, &rel, *anchor) }
+                if rel.is_empty() {
+                    Some(*anchor)
+                } else {
+                    locate(t, &rel, *anchor)
+                }
             });
             return (f.clone(), l);
         }
@@ -301,10 +327,17 @@ fn inherit_overrides(stages: &mut [Stage], index: &HashMap<String, usize>) {
 fn known_ids(raw: &[Yaml]) -> std::collections::HashSet<String> {
     let mut out = std::collections::HashSet::new();
     for e in raw {
-        let Some(id) = e.get("id").and_then(|v| v.as_str()) else { continue };
+        let Some(id) = e.get("id").and_then(|v| v.as_str()) else {
+            continue;
+        };
         out.insert(id.to_string());
         // The stage's matrix and every profile's (a `--set` may name a member of either).
-        let profile_matrices = e.get("profiles").and_then(|p| p.as_mapping()).into_iter().flat_map(|p| p.values()).filter_map(|p| p.get("matrix"));
+        let profile_matrices = e
+            .get("profiles")
+            .and_then(|p| p.as_mapping())
+            .into_iter()
+            .flat_map(|p| p.values())
+            .filter_map(|p| p.get("matrix"));
         for mat in e.get("matrix").into_iter().chain(profile_matrices) {
             let Yaml::Mapping(m) = mat else { continue };
             for (k, vals) in m {
@@ -322,16 +355,35 @@ fn known_ids(raw: &[Yaml]) -> std::collections::HashSet<String> {
 /// too), and the same problem is reported once.
 pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
     let mut diags = Diagnostics::default();
-    let root = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
-    let root = if root.as_os_str().is_empty() { PathBuf::from(".") } else { root };
+    let root = path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    let root = if root.as_os_str().is_empty() {
+        PathBuf::from(".")
+    } else {
+        root
+    };
     if !PROFILES.contains(&profile) {
-        diags.push(Path::new("<command line>"), None, "--profile", format!("unknown profile `{profile}`"), format!("allowed: {}", PROFILES.join(", ")));
+        diags.push(
+            Path::new("<command line>"),
+            None,
+            "--profile",
+            format!("unknown profile `{profile}`"),
+            format!("allowed: {}", PROFILES.join(", ")),
+        );
         return Err(diags);
     }
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) => {
-            diags.push(path, None, "", format!("cannot read the pipeline file {}: {e}", path.display()), "pass --pipeline PATH, or run from the directory holding pipeline.yaml");
+            diags.push(
+                path,
+                None,
+                "",
+                format!("cannot read the pipeline file {}: {e}", path.display()),
+                "pass --pipeline PATH, or run from the directory holding pipeline.yaml",
+            );
             return Err(diags);
         }
     };
@@ -340,7 +392,13 @@ pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, D
 
 /// [`load`] from a pipeline text already read (`path` names it in messages; stage files
 /// are relative to `root`).
-pub fn load_text(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
+pub fn load_text(
+    path: &Path,
+    text: &str,
+    root: &Path,
+    profile: &str,
+    sets: &[Override],
+) -> Result<Pipeline, Diagnostics> {
     let main = load_profile(path, text, root, profile, sets);
     let mut all: Vec<Diagnostic> = match &main {
         Ok(_) => vec![],
@@ -362,14 +420,26 @@ pub fn load_text(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ov
     }
 }
 
-fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
+fn load_profile(
+    path: &Path,
+    text: &str,
+    root: &Path,
+    profile: &str,
+    sets: &[Override],
+) -> Result<Pipeline, Diagnostics> {
     let mut diags = Diagnostics::default();
     let root = root.to_path_buf();
     let text = text.to_string();
     let file: PipelineFile = match serde_yaml::from_str::<Yaml>(&text) {
         Err(e) => {
             let line = e.location().map(|l| l.line());
-            diags.push(path, line, "", format!("YAML syntax error: {e}"), "fix the YAML syntax (indentation, ':' after keys, matching quotes)");
+            diags.push(
+                path,
+                line,
+                "",
+                format!("YAML syntax error: {e}"),
+                "fix the YAML syntax (indentation, ':' after keys, matching quotes)",
+            );
             return Err(diags);
         }
         Ok(v) => match serde_path_to_error::deserialize::<_, PipelineFile>(v) {
@@ -377,14 +447,34 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             Err(e) => {
                 let inner = e.inner().to_string();
                 let field = inner.split('`').nth(1).unwrap_or("");
-                let line = if inner.starts_with("unknown field") { locate(&text, &[field], 1) } else { locate(&text, &[&e.path().to_string()], 1) };
-                diags.push(path, line, if inner.starts_with("unknown field") { field.to_string() } else { e.path().to_string() }, inner, "top-level keys: version, description, stages");
+                let line = if inner.starts_with("unknown field") {
+                    locate(&text, &[field], 1)
+                } else {
+                    locate(&text, &[&e.path().to_string()], 1)
+                };
+                diags.push(
+                    path,
+                    line,
+                    if inner.starts_with("unknown field") {
+                        field.to_string()
+                    } else {
+                        e.path().to_string()
+                    },
+                    inner,
+                    "top-level keys: version, description, stages",
+                );
                 return Err(diags);
             }
         },
     };
     if file.version != 1 {
-        diags.push(path, locate(&text, &["version"], 1), "version", format!("unsupported pipeline version {}", file.version), "allowed: 1");
+        diags.push(
+            path,
+            locate(&text, &["version"], 1),
+            "version",
+            format!("unsupported pipeline version {}", file.version),
+            "allowed: 1",
+        );
     }
     let kinds = registry();
     let mut stages: Vec<Stage> = Vec::new();
@@ -413,7 +503,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 } else {
                     (e.path().to_string(), line)
                 };
-                diags.push(path, l, format!("stages[{label}].{key}"), inner, "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix");
+                diags.push(
+                    path,
+                    l,
+                    format!("stages[{label}].{key}"),
+                    inner,
+                    "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix",
+                );
                 rejected.extend(raw_id);
                 continue;
             }
@@ -428,13 +524,25 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             Some(k) => *k,
             None => {
                 let l = line.and_then(|ln| locate(&text, &["kind"], ln));
-                diags.push(path, l, format!("stages[{}].kind", entry.id), format!("unknown stage kind `{}`", entry.kind), format!("known kinds: {}", kinds.keys().cloned().collect::<Vec<_>>().join(", ")));
+                diags.push(
+                    path,
+                    l,
+                    format!("stages[{}].kind", entry.id),
+                    format!("unknown stage kind `{}`", entry.kind),
+                    format!("known kinds: {}", kinds.keys().cloned().collect::<Vec<_>>().join(", ")),
+                );
                 rejected.insert(entry.id.clone());
                 continue;
             }
         };
         if let Some(prev) = seen_base.insert(entry.id.clone(), si) {
-            diags.push(path, line, format!("stages[{}].id", entry.id), format!("duplicate stage id (also entry #{prev})"), "give every stage a unique id");
+            diags.push(
+                path,
+                line,
+                format!("stages[{}].id", entry.id),
+                format!("duplicate stage id (also entry #{prev})"),
+                "give every stage a unique id",
+            );
             continue;
         }
         // A profile may sweep other values of the stage's matrix key (`profiles: { quick:
@@ -442,7 +550,9 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         // chapter's list in the paper one. It replaces the values, never the key.
         let mut profile_matrix_bad = false;
         for (pname, pm) in entry.profiles.iter_mut() {
-            let Some(mv) = pm.remove(Yaml::String("matrix".into())) else { continue };
+            let Some(mv) = pm.remove(Yaml::String("matrix".into())) else {
+                continue;
+            };
             let l = line.and_then(|ln| locate(&text, &["profiles", pname, "matrix"], ln));
             let parsed: Option<BTreeMap<String, Vec<Yaml>>> = serde_yaml::from_value(mv).ok();
             let same_key = match (&parsed, &entry.matrix) {
@@ -451,10 +561,16 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             };
             if !same_key {
                 let base = entry.matrix.as_ref().and_then(|m| m.keys().next().cloned());
-                diags.push(path, l, format!("stages[{}].profiles.{pname}.matrix", entry.id), "a profile's matrix must sweep the stage's own matrix key", match base {
-                    Some(k) => format!("write `matrix: {{ {k}: [..] }}` (the key of the stage's `matrix:`)"),
-                    None => "declare `matrix:` on the stage first; a profile only changes its values".to_string(),
-                });
+                diags.push(
+                    path,
+                    l,
+                    format!("stages[{}].profiles.{pname}.matrix", entry.id),
+                    "a profile's matrix must sweep the stage's own matrix key",
+                    match base {
+                        Some(k) => format!("write `matrix: {{ {k}: [..] }}` (the key of the stage's `matrix:`)"),
+                        None => "declare `matrix:` on the stage first; a profile only changes its values".to_string(),
+                    },
+                );
                 profile_matrix_bad = true;
             } else if pname == profile {
                 entry.matrix = parsed;
@@ -467,7 +583,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         for p in entry.profiles.keys() {
             if !PROFILES.contains(&p.as_str()) {
                 let l = line.and_then(|ln| locate(&text, &["profiles", p], ln));
-                diags.push(path, l, format!("stages[{}].profiles.{p}", entry.id), format!("unknown profile `{p}`"), format!("allowed: {}", PROFILES.join(", ")));
+                diags.push(
+                    path,
+                    l,
+                    format!("stages[{}].profiles.{p}", entry.id),
+                    format!("unknown profile `{p}`"),
+                    format!("allowed: {}", PROFILES.join(", ")),
+                );
             }
         }
         // Layers of params.
@@ -488,7 +610,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 Ok(t) => t,
                 Err(e) => {
                     let l = line.and_then(|ln| locate(&text, &["params_file"], ln));
-                    diags.push(path, l, format!("stages[{}].params_file", entry.id), format!("cannot read `{}`: {e}", fpath.display()), "paths are relative to the directory of pipeline.yaml");
+                    diags.push(
+                        path,
+                        l,
+                        format!("stages[{}].params_file", entry.id),
+                        format!("cannot read `{}`: {e}", fpath.display()),
+                        "paths are relative to the directory of pipeline.yaml",
+                    );
                     file_ok = false;
                     continue;
                 }
@@ -496,7 +624,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             let mut fv: Yaml = match serde_yaml::from_str(&ftext) {
                 Ok(v) => v,
                 Err(e) => {
-                    diags.push(&fpath, e.location().map(|l| l.line()), "", format!("YAML syntax error: {e}"), "fix the YAML syntax");
+                    diags.push(
+                        &fpath,
+                        e.location().map(|l| l.line()),
+                        "",
+                        format!("YAML syntax error: {e}"),
+                        "fix the YAML syntax",
+                    );
                     file_ok = false;
                     continue;
                 }
@@ -505,7 +639,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 fv = Yaml::Mapping(Mapping::new());
             }
             let Yaml::Mapping(mut fm) = fv else {
-                diags.push(&fpath, Some(1), "", "a stage file must be a mapping of parameters", "write `key: value` lines");
+                diags.push(
+                    &fpath,
+                    Some(1),
+                    "",
+                    "a stage file must be a mapping of parameters",
+                    "write `key: value` lines",
+                );
                 file_ok = false;
                 continue;
             };
@@ -521,21 +661,45 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                     None => m,
                 }
             };
-            layers.push(Layer { file: fpath.clone(), text: Some(ftext.clone()), prefix: prefix.clone(), anchor: 1, value: wrap(Yaml::Mapping(fm)) });
+            layers.push(Layer {
+                file: fpath.clone(),
+                text: Some(ftext.clone()),
+                prefix: prefix.clone(),
+                anchor: 1,
+                value: wrap(Yaml::Mapping(fm)),
+            });
             if let Some(fp) = fprof {
                 let Yaml::Mapping(pm) = fp else {
-                    diags.push(&fpath, locate(&ftext, &["profiles"], 1), "profiles", "must be a mapping `quick: {..}` / `paper: {..}`", "");
+                    diags.push(
+                        &fpath,
+                        locate(&ftext, &["profiles"], 1),
+                        "profiles",
+                        "must be a mapping `quick: {..}` / `paper: {..}`",
+                        "",
+                    );
                     continue;
                 };
                 for (k, _) in pm.iter() {
                     let ks = yaml_scalar_string(k);
                     if !PROFILES.contains(&ks.as_str()) {
-                        diags.push(&fpath, locate(&ftext, &["profiles", &ks], 1), format!("profiles.{ks}"), format!("unknown profile `{ks}`"), format!("allowed: {}", PROFILES.join(", ")));
+                        diags.push(
+                            &fpath,
+                            locate(&ftext, &["profiles", &ks], 1),
+                            format!("profiles.{ks}"),
+                            format!("unknown profile `{ks}`"),
+                            format!("allowed: {}", PROFILES.join(", ")),
+                        );
                     }
                 }
                 if let Some(over) = pm.get(Yaml::String(profile.into())) {
                     let anchor = locate(&ftext, &["profiles", profile], 1).unwrap_or(1);
-                    layers.push(Layer { file: fpath.clone(), text: Some(ftext.clone()), prefix: prefix.clone(), anchor, value: wrap(over.clone()) });
+                    layers.push(Layer {
+                        file: fpath.clone(),
+                        text: Some(ftext.clone()),
+                        prefix: prefix.clone(),
+                        anchor,
+                        value: wrap(over.clone()),
+                    });
                 }
             }
         }
@@ -545,11 +709,25 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         }
         if let Some(p) = &entry.params {
             let anchor = line.and_then(|ln| locate(&text, &["params"], ln)).unwrap_or(1);
-            layers.push(Layer { file: path.to_path_buf(), text: Some(text.clone()), prefix: vec![], anchor, value: Yaml::Mapping(p.clone()) });
+            layers.push(Layer {
+                file: path.to_path_buf(),
+                text: Some(text.clone()),
+                prefix: vec![],
+                anchor,
+                value: Yaml::Mapping(p.clone()),
+            });
         }
         if let Some(p) = entry.profiles.get(profile) {
-            let anchor = line.and_then(|ln| locate(&text, &["profiles", profile], ln)).unwrap_or(1);
-            layers.push(Layer { file: path.to_path_buf(), text: Some(text.clone()), prefix: vec![], anchor, value: Yaml::Mapping(p.clone()) });
+            let anchor = line
+                .and_then(|ln| locate(&text, &["profiles", profile], ln))
+                .unwrap_or(1);
+            layers.push(Layer {
+                file: path.to_path_buf(),
+                text: Some(text.clone()),
+                prefix: vec![],
+                anchor,
+                value: Yaml::Mapping(p.clone()),
+            });
         }
         // Matrix expansion.
         let members: Vec<(String, Option<(String, String, Yaml)>)> = match &entry.matrix {
@@ -558,31 +736,67 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 let (k, vals) = m.iter().next().unwrap();
                 let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
                 if vals.is_empty() {
-                    diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), "empty value list", "give at least one value");
+                    diags.push(
+                        path,
+                        l,
+                        format!("stages[{}].matrix.{k}", entry.id),
+                        "empty value list",
+                        "give at least one value",
+                    );
                     rejected.insert(entry.id.clone());
                     continue;
                 }
-                if let Some(bad) = vals.iter().find(|v| !matches!(v, Yaml::Number(_) | Yaml::String(_) | Yaml::Bool(_))) {
-                    let shown = serde_json::to_string(&serde_yaml::to_string(bad).unwrap_or_default().trim()).unwrap_or_default();
-                    diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), format!("matrix value {shown} is not a number, string or boolean"), "matrix values name the members (`<id>-<key><value>`): use scalars");
+                if let Some(bad) = vals
+                    .iter()
+                    .find(|v| !matches!(v, Yaml::Number(_) | Yaml::String(_) | Yaml::Bool(_)))
+                {
+                    let shown = serde_json::to_string(&serde_yaml::to_string(bad).unwrap_or_default().trim())
+                        .unwrap_or_default();
+                    diags.push(
+                        path,
+                        l,
+                        format!("stages[{}].matrix.{k}", entry.id),
+                        format!("matrix value {shown} is not a number, string or boolean"),
+                        "matrix values name the members (`<id>-<key><value>`): use scalars",
+                    );
                     rejected.insert(entry.id.clone());
                     continue;
                 }
-                let bad_ids: Vec<String> = vals.iter().filter_map(|v| check::check_id(&format!("{}-{}{}", entry.id, k, yaml_scalar_string(v))).err()).collect();
+                let bad_ids: Vec<String> = vals
+                    .iter()
+                    .filter_map(|v| check::check_id(&format!("{}-{}{}", entry.id, k, yaml_scalar_string(v))).err())
+                    .collect();
                 if !bad_ids.is_empty() {
-                    diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), format!("matrix member id: {}", bad_ids.join("; ")), check::ID_HELP);
+                    diags.push(
+                        path,
+                        l,
+                        format!("stages[{}].matrix.{k}", entry.id),
+                        format!("matrix member id: {}", bad_ids.join("; ")),
+                        check::ID_HELP,
+                    );
                     rejected.insert(entry.id.clone());
                     continue;
                 }
-                base_matrix.insert(entry.id.clone(), (k.clone(), vals.iter().map(yaml_scalar_string).collect()));
-                vals.iter().map(|v| {
-                    let vs = yaml_scalar_string(v);
-                    (format!("{}-{}{}", entry.id, k, vs), Some((k.clone(), vs, v.clone())))
-                }).collect()
+                base_matrix.insert(
+                    entry.id.clone(),
+                    (k.clone(), vals.iter().map(yaml_scalar_string).collect()),
+                );
+                vals.iter()
+                    .map(|v| {
+                        let vs = yaml_scalar_string(v);
+                        (format!("{}-{}{}", entry.id, k, vs), Some((k.clone(), vs, v.clone())))
+                    })
+                    .collect()
             }
             Some(_) => {
                 let l = line.and_then(|ln| locate(&text, &["matrix"], ln));
-                diags.push(path, l, format!("stages[{}].matrix", entry.id), "a matrix takes exactly one key", "sweep one parameter per stage; chain stages for more");
+                diags.push(
+                    path,
+                    l,
+                    format!("stages[{}].matrix", entry.id),
+                    "a matrix takes exactly one key",
+                    "sweep one parameter per stage; chain stages for more",
+                );
                 rejected.insert(entry.id.clone());
                 continue;
             }
@@ -593,8 +807,18 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             for layer in &layers {
                 merge(&mut merged, &layer.value);
             }
-            let mut mlayers: Vec<(PathBuf, Option<String>, Vec<String>, usize, Yaml)> =
-                layers.iter().map(|l| (l.file.clone(), l.text.clone(), l.prefix.clone(), l.anchor, l.value.clone())).collect();
+            let mut mlayers: Vec<(PathBuf, Option<String>, Vec<String>, usize, Yaml)> = layers
+                .iter()
+                .map(|l| {
+                    (
+                        l.file.clone(),
+                        l.text.clone(),
+                        l.prefix.clone(),
+                        l.anchor,
+                        l.value.clone(),
+                    )
+                })
+                .collect();
             if let Some((k, _, v)) = &mval {
                 set_path(&mut merged, k, v.clone());
                 let mut m = Yaml::Mapping(Mapping::new());
@@ -616,7 +840,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             if !bad.is_empty() {
                 for (key, value, allowed) in bad {
                     let (file, l) = attribute(&mlayers, &key, path, line);
-                    diags.push(&file, l, format!("stages[{mid}].params.{key}"), format!("value {value} is not allowed"), allowed);
+                    diags.push(
+                        &file,
+                        l,
+                        format!("stages[{mid}].params.{key}"),
+                        format!("value {value} is not allowed"),
+                        allowed,
+                    );
                 }
                 rejected.insert(mid.clone());
                 rejected.insert(entry.id.clone());
@@ -625,7 +855,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             let json = match to_json(&merged) {
                 Ok(j) => j,
                 Err(e) => {
-                    diags.push(path, line, format!("stages[{mid}].params"), format!("params cannot be read: {e}"), "keys must be strings");
+                    diags.push(
+                        path,
+                        line,
+                        format!("stages[{mid}].params"),
+                        format!("params cannot be read: {e}"),
+                        "keys must be strings",
+                    );
                     continue;
                 }
             };
@@ -648,7 +884,11 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 Err(problems) => {
                     for pr in problems {
                         let (file, l) = attribute(&mlayers, &pr.key, path, line);
-                        let help = if pr.allowed.is_empty() { format!("see the `{}` kind's parameters in docs/pipeline.md", kind.name) } else { pr.allowed.clone() };
+                        let help = if pr.allowed.is_empty() {
+                            format!("see the `{}` kind's parameters in docs/pipeline.md", kind.name)
+                        } else {
+                            pr.allowed.clone()
+                        };
                         diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), pr.message, help);
                     }
                     rejected.insert(mid.clone());
@@ -676,10 +916,19 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         for p in pending_inputs[first_member..].iter_mut() {
             p.1 = entry.inputs.as_ref().map(|i| match i {
                 InputsSpec::List(v) => InputsSpec::List(v.clone()),
-                InputsSpec::Map(m) => InputsSpec::Map(m.iter().map(|(k, v)| (k.clone(), match v {
-                    OneOrMany::One(s) => OneOrMany::One(s.clone()),
-                    OneOrMany::Many(v) => OneOrMany::Many(v.clone()),
-                })).collect()),
+                InputsSpec::Map(m) => InputsSpec::Map(
+                    m.iter()
+                        .map(|(k, v)| {
+                            (
+                                k.clone(),
+                                match v {
+                                    OneOrMany::One(s) => OneOrMany::One(s.clone()),
+                                    OneOrMany::Many(v) => OneOrMany::Many(v.clone()),
+                                },
+                            )
+                        })
+                        .collect(),
+                ),
             });
         }
     }
@@ -687,14 +936,30 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
     let mut seen_ids: HashMap<&str, &Stage> = HashMap::new();
     for st in &stages {
         if let Some(prev) = seen_ids.insert(st.id.as_str(), st) {
-            let other = if prev.base_id != prev.id { format!("a member of `{}`", prev.base_id) } else { "a stage".into() };
-            diags.push(path, st.line, format!("stages[{}].id", st.id), format!("duplicate stage id `{}` (also {other})", st.id), "rename the stage or change the matrix values");
+            let other = if prev.base_id != prev.id {
+                format!("a member of `{}`", prev.base_id)
+            } else {
+                "a stage".into()
+            };
+            diags.push(
+                path,
+                st.line,
+                format!("stages[{}].id", st.id),
+                format!("duplicate stage id `{}` (also {other})", st.id),
+                "rename the stage or change the matrix values",
+            );
         }
     }
     // Unknown stages named by --set.
     for s in sets {
         if !stages.iter().any(|st| st.id == s.stage || st.base_id == s.stage) && !seen_base.contains_key(&s.stage) {
-            diags.push(Path::new("<command line>"), None, format!("--set {}.{}", s.stage, s.key), format!("no stage `{}`", s.stage), "use an id from `granrepro list`");
+            diags.push(
+                Path::new("<command line>"),
+                None,
+                format!("--set {}.{}", s.stage, s.key),
+                format!("no stage `{}`", s.stage),
+                "use an id from `granrepro list`",
+            );
         }
     }
     // Resolve inputs.
@@ -705,7 +970,18 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
         declared_inputs.insert(idx);
         let pairs: Vec<(String, Vec<String>)> = match spec {
             InputsSpec::List(v) => v.into_iter().map(|id| (id.clone(), vec![id])).collect(),
-            InputsSpec::Map(m) => m.into_iter().map(|(k, v)| (k, match v { OneOrMany::One(s) => vec![s], OneOrMany::Many(v) => v })).collect(),
+            InputsSpec::Map(m) => m
+                .into_iter()
+                .map(|(k, v)| {
+                    (
+                        k,
+                        match v {
+                            OneOrMany::One(s) => vec![s],
+                            OneOrMany::Many(v) => v,
+                        },
+                    )
+                })
+                .collect(),
         };
         let mut resolved = Vec::new();
         // Reads a stage rejected above: its problems are reported there, not again here.
@@ -728,7 +1004,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                 if members.is_empty() {
                     let l = line.and_then(|ln| locate(&text, &["inputs"], ln));
                     let sid = stages[idx].id.clone();
-                    diags.push(path, l, format!("stages[{sid}].inputs"), format!("missing input: no stage `{r}`"), "name an existing stage id (or a matrix base id)");
+                    diags.push(
+                        path,
+                        l,
+                        format!("stages[{sid}].inputs"),
+                        format!("missing input: no stage `{r}`"),
+                        "name an existing stage id (or a matrix base id)",
+                    );
                     continue;
                 }
                 // Pair matrix members on the same key and value; otherwise fan in all.
@@ -741,7 +1023,13 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
                             tainted = true;
                         } else {
                             let sid = stages[idx].id.clone();
-                            diags.push(path, line, format!("stages[{sid}].inputs"), format!("missing input: `{r}` has no member for {k} = {v}"), format!("add {v} to the matrix of `{r}`"));
+                            diags.push(
+                                path,
+                                line,
+                                format!("stages[{sid}].inputs"),
+                                format!("missing input: `{r}` has no member for {k} = {v}"),
+                                format!("add {v} to the matrix of `{r}`"),
+                            );
                         }
                     }
                     _ => out.extend(members.iter().map(|s| s.id.clone())),
@@ -775,11 +1063,31 @@ fn load_profile(path: &Path, text: &str, root: &Path, profile: &str, sets: &[Ove
             let mut stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
             let index: HashMap<String, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
             inherit_overrides(&mut stages, &index);
-            Ok(Pipeline { path: path.to_path_buf(), root, profile: profile.to_string(), stages, index, kinds })
+            Ok(Pipeline {
+                path: path.to_path_buf(),
+                root,
+                profile: profile.to_string(),
+                stages,
+                index,
+                kinds,
+            })
         }
         Err(cycle) => {
-            let l = locate_stage(&text, stages.iter().find(|s| s.id == cycle[0]).map(|s| s.base_id.as_str()).unwrap_or(""));
-            diags.push(path, l, "stages", format!("cycle: {}", cycle.join(" -> ")), "remove one of these inputs so the stages form a DAG");
+            let l = locate_stage(
+                &text,
+                stages
+                    .iter()
+                    .find(|s| s.id == cycle[0])
+                    .map(|s| s.base_id.as_str())
+                    .unwrap_or(""),
+            );
+            diags.push(
+                path,
+                l,
+                "stages",
+                format!("cycle: {}", cycle.join(" -> ")),
+                "remove one of these inputs so the stages form a DAG",
+            );
             Err(diags)
         }
     }
@@ -797,7 +1105,10 @@ mod tests {
     fn merge_is_deep_and_switches_enum_variants() {
         let mut base = y("mpm: {cell_size: 2, step: {fixed: {dt: 1}}, material: {e: 1, nu: 2}}");
         merge(&mut base, &y("mpm: {step: {cfl: {courant: 0.5}}, material: {nu: 3}}"));
-        assert_eq!(base, y("mpm: {cell_size: 2, step: {cfl: {courant: 0.5}}, material: {e: 1, nu: 3}}"));
+        assert_eq!(
+            base,
+            y("mpm: {cell_size: 2, step: {cfl: {courant: 0.5}}, material: {e: 1, nu: 3}}")
+        );
         // Top-level sections of different files never replace each other.
         let mut top = y("mpm: {a: {b: 1}}");
         merge(&mut top, &y("run: {c: {d: 2}}"));

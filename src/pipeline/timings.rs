@@ -36,7 +36,9 @@ pub struct Timed {
 
 impl Timed {
     /// End, seconds after the earliest start.
-    pub fn end_s(&self) -> f64 { self.start_s + self.wall_s }
+    pub fn end_s(&self) -> f64 {
+        self.start_s + self.wall_s
+    }
 }
 
 /// The timings of a plan.
@@ -54,10 +56,25 @@ pub fn timings(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Timin
     let mut rows = Vec::new();
     let mut missing = Vec::new();
     for st in plan(p, proj, targets)? {
-        let rec: Option<Value> = std::fs::read(proj.cache.entry_dir(&st.key).join("record.json")).ok().and_then(|b| serde_json::from_slice(&b).ok());
-        let got = rec.as_ref().and_then(|r| Some((r.get("started_unix_s")?.as_f64()?, r.get("wall_s")?.as_f64()?, r.get("threads").and_then(Value::as_u64).unwrap_or(1))));
+        let rec: Option<Value> = std::fs::read(proj.cache.entry_dir(&st.key).join("record.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok());
+        let got = rec.as_ref().and_then(|r| {
+            Some((
+                r.get("started_unix_s")?.as_f64()?,
+                r.get("wall_s")?.as_f64()?,
+                r.get("threads").and_then(Value::as_u64).unwrap_or(1),
+            ))
+        });
         match got {
-            Some((start, wall, threads)) => rows.push(Timed { id: st.id, kind: st.kind, start_s: start, wall_s: wall, threads: threads.max(1) as usize, inputs: st.inputs }),
+            Some((start, wall, threads)) => rows.push(Timed {
+                id: st.id,
+                kind: st.kind,
+                start_s: start,
+                wall_s: wall,
+                threads: threads.max(1) as usize,
+                inputs: st.inputs,
+            }),
             None => missing.push(st.id),
         }
     }
@@ -93,7 +110,12 @@ impl Timings {
         use std::collections::HashMap;
         let by_id: HashMap<&str, usize> = self.rows.iter().enumerate().map(|(k, r)| (r.id.as_str(), k)).collect();
         // Longest chain ending at each stage (the DAG is acyclic; memoised, inputs first).
-        fn best(k: usize, rows: &[Timed], by_id: &HashMap<&str, usize>, memo: &mut Vec<Option<(f64, Option<usize>)>>) -> f64 {
+        fn best(
+            k: usize,
+            rows: &[Timed],
+            by_id: &HashMap<&str, usize>,
+            memo: &mut Vec<Option<(f64, Option<usize>)>>,
+        ) -> f64 {
             if let Some((v, _)) = memo[k] {
                 return v;
             }
@@ -132,7 +154,10 @@ impl Timings {
     /// The report: stages at least `min_wall_s` long (all when 0), totals, the chain.
     pub fn to_text(&self, cores: usize, min_wall_s: f64) -> String {
         let mut s = String::new();
-        s.push_str(&format!("{:>9} {:>9} {:>9} {:>3}  {:<26} {}\n", "start [s]", "end [s]", "wall [s]", "thr", "kind", "stage"));
+        s.push_str(&format!(
+            "{:>9} {:>9} {:>9} {:>3}  {:<26} {}\n",
+            "start [s]", "end [s]", "wall [s]", "thr", "kind", "stage"
+        ));
         let mut hidden = (0usize, 0.0);
         for r in &self.rows {
             if r.wall_s < min_wall_s {
@@ -140,10 +165,21 @@ impl Timings {
                 hidden.1 += r.wall_s;
                 continue;
             }
-            s.push_str(&format!("{:>9.1} {:>9.1} {:>9.2} {:>3}  {:<26} {}\n", r.start_s, r.end_s(), r.wall_s, r.threads, r.kind, r.id));
+            s.push_str(&format!(
+                "{:>9.1} {:>9.1} {:>9.2} {:>3}  {:<26} {}\n",
+                r.start_s,
+                r.end_s(),
+                r.wall_s,
+                r.threads,
+                r.kind,
+                r.id
+            ));
         }
         if hidden.0 > 0 {
-            s.push_str(&format!("({} stages under {min_wall_s} s not listed: {:.1} s together)\n", hidden.0, hidden.1));
+            s.push_str(&format!(
+                "({} stages under {min_wall_s} s not listed: {:.1} s together)\n",
+                hidden.0, hidden.1
+            ));
         }
         let span = self.span_s();
         let held = self.stage_core_s();
@@ -164,7 +200,10 @@ impl Timings {
             s.push_str(&format!("  {:>9.1} {:>9.2}  {}\n", r.start_s, r.wall_s, r.id));
         }
         if !self.missing.is_empty() {
-            s.push_str(&format!("no run record (not run, or an older granrepro made the entry): {}\n", self.missing.join(", ")));
+            s.push_str(&format!(
+                "no run record (not run, or an older granrepro made the entry): {}\n",
+                self.missing.join(", ")
+            ));
         }
         s
     }
@@ -187,7 +226,14 @@ mod tests {
     use super::*;
 
     fn t(id: &str, start: f64, wall: f64, inputs: &[&str]) -> Timed {
-        Timed { id: id.into(), kind: "k".into(), start_s: start, wall_s: wall, threads: 1, inputs: inputs.iter().map(|s| s.to_string()).collect() }
+        Timed {
+            id: id.into(),
+            kind: "k".into(),
+            start_s: start,
+            wall_s: wall,
+            threads: 1,
+            inputs: inputs.iter().map(|s| s.to_string()).collect(),
+        }
     }
 
     #[test]
@@ -196,17 +242,32 @@ mod tests {
         // independent and longest: the critical chain is d alone (40 s against b → c → e,
         // 40 s: ties keep the first found, so d is made 41 s). Without d: b → c → e
         // (a is shorter than b, so it is not critical).
-        let rows = vec![t("a", 100.0, 10.0, &[]), t("b", 100.0, 30.0, &[]), t("c", 130.0, 5.0, &["a", "b"]), t("e", 135.0, 5.0, &["c"]), t("d", 110.0, 41.0, &[])];
+        let rows = vec![
+            t("a", 100.0, 10.0, &[]),
+            t("b", 100.0, 30.0, &[]),
+            t("c", 130.0, 5.0, &["a", "b"]),
+            t("e", 135.0, 5.0, &["c"]),
+            t("d", 110.0, 41.0, &[]),
+        ];
         let tm = Timings::new(rows.clone(), vec![]);
         assert_eq!(tm.rows[0].start_s, 0.0);
         assert_eq!(tm.span_s(), 51.0);
         assert_eq!(tm.stage_core_s(), 91.0);
-        assert_eq!(tm.critical_chain().iter().map(|r| r.id.as_str()).collect::<Vec<_>>(), ["d"]);
+        assert_eq!(
+            tm.critical_chain().iter().map(|r| r.id.as_str()).collect::<Vec<_>>(),
+            ["d"]
+        );
         let tm = Timings::new(rows.into_iter().filter(|r| r.id != "d").collect(), vec![]);
-        assert_eq!(tm.critical_chain().iter().map(|r| r.id.as_str()).collect::<Vec<_>>(), ["b", "c", "e"]);
+        assert_eq!(
+            tm.critical_chain().iter().map(|r| r.id.as_str()).collect::<Vec<_>>(),
+            ["b", "c", "e"]
+        );
         let text = tm.to_text(2, 0.0);
         assert!(text.contains("span 40.0 s"), "{text}");
-        assert!(text.contains("the critical chain 40.0 s (unlimited cores); Σ wall × threads / 2 cores 25.0 s"), "{text}");
+        assert!(
+            text.contains("the critical chain 40.0 s (unlimited cores); Σ wall × threads / 2 cores 25.0 s"),
+            "{text}"
+        );
     }
 
     #[test]
@@ -214,6 +275,9 @@ mod tests {
         let tm = Timings::new(vec![t("c", 10.0, 5.0, &["not-timed"])], vec!["z".into()]);
         let chain: Vec<&str> = tm.critical_chain().iter().map(|r| r.id.as_str()).collect();
         assert_eq!(chain, ["c"]);
-        assert!(tm.to_text(2, 0.0).contains("no run record (not run, or an older granrepro made the entry): z"));
+        assert!(
+            tm.to_text(2, 0.0)
+                .contains("no run record (not run, or an older granrepro made the entry): z")
+        );
     }
 }

@@ -10,7 +10,10 @@ use std::path::Path;
 use serde_json::Value;
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 fn num(v: &Value) -> String {
@@ -41,7 +44,15 @@ fn chapter_place(id: &str, pos: usize) -> (usize, (u64, u64, String, usize)) {
         let d: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
         d.parse().ok().map(|n| (n, rest[d.len()..].to_string()))
     };
-    let section_of_fig = |n: u64| if n <= 14 { 0 } else if n <= 22 { 1 } else { 2 };
+    let section_of_fig = |n: u64| {
+        if n <= 14 {
+            0
+        } else if n <= 22 {
+            1
+        } else {
+            2
+        }
+    };
     if let Some((n, suffix)) = id.strip_prefix("fig4-").and_then(num) {
         return (section_of_fig(n), (n, 0, suffix, pos));
     }
@@ -64,7 +75,12 @@ fn chapter_place(id: &str, pos: usize) -> (usize, (u64, u64, String, usize)) {
     (section, (u64::MAX, 2, String::new(), pos))
 }
 
-const SECTIONS: [&str; 4] = ["4.2 Granular column collapse", "4.3 Role of initial grain properties", "4.4 Slopes subjected to horizontal excitation", "Numerics: work-precision"];
+const SECTIONS: [&str; 4] = [
+    "4.2 Granular column collapse",
+    "4.3 Role of initial grain properties",
+    "4.4 Slopes subjected to horizontal excitation",
+    "Numerics: work-precision",
+];
 
 use super::measured::{methods, pct};
 
@@ -72,7 +88,10 @@ use super::measured::{methods, pct};
 /// published `profile` table: method → (setting, error, standard error, wall time of one run).
 fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64, f64, f64)> {
     let text = std::fs::read_to_string(dir.join("wp-summary-profile.csv")).unwrap_or_default();
-    super::measured::parse_profile_csv(&text).into_iter().map(|(m, e)| (m, (e.setting, e.error, e.error_se, e.wall_s))).collect()
+    super::measured::parse_profile_csv(&text)
+        .into_iter()
+        .map(|(m, e)| (m, (e.setting, e.error, e.error_se, e.wall_s)))
+        .collect()
 }
 
 /// Rebuild the index of one profile's report directory listing exactly the stages `ids`
@@ -83,11 +102,19 @@ fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64
 /// (supporting stages after each section's figures), and the input and consistency
 /// checks listed apart at the end.
 pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Result<()> {
-    let ids: Vec<String> = ids.iter().filter(|id| dir.join(format!("{id}.json")).exists()).cloned().collect();
-    let mut placed: Vec<(usize, (u64, u64, String, usize), String)> = ids.iter().enumerate().map(|(pos, id)| {
-        let (sec, key) = chapter_place(id, pos);
-        (sec, key, id.clone())
-    }).collect();
+    let ids: Vec<String> = ids
+        .iter()
+        .filter(|id| dir.join(format!("{id}.json")).exists())
+        .cloned()
+        .collect();
+    let mut placed: Vec<(usize, (u64, u64, String, usize), String)> = ids
+        .iter()
+        .enumerate()
+        .map(|(pos, id)| {
+            let (sec, key) = chapter_place(id, pos);
+            (sec, key, id.clone())
+        })
+        .collect();
     placed.sort();
     let perr = profile_errors(dir);
     let mut h = String::new();
@@ -101,15 +128,31 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         p = esc(profile)
     );
     // per-section claims and all checks, gathered first
-    struct ClaimRow { stage: String, id: String, statement: String, paper: Value, ours: Value, tol: Value, pass: bool, calibrated: bool }
+    struct ClaimRow {
+        stage: String,
+        id: String,
+        statement: String,
+        paper: Value,
+        ours: Value,
+        tol: Value,
+        pass: bool,
+        calibrated: bool,
+    }
     let mut claims: Vec<Vec<ClaimRow>> = (0..SECTIONS.len()).map(|_| Vec::new()).collect();
     let mut checks: Vec<ClaimRow> = Vec::new();
     let mut body = String::new();
     let mut ervt = String::new();
     let mut current = usize::MAX;
     for (sec, _, id) in &placed {
-        let Ok(res) = std::fs::read(dir.join(format!("{id}.json"))).map(|b| serde_json::from_slice::<Value>(&b).unwrap_or(Value::Null)) else { continue };
-        let rec: Value = std::fs::read(dir.join(format!("{id}.record.json"))).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or(Value::Null);
+        let Ok(res) = std::fs::read(dir.join(format!("{id}.json")))
+            .map(|b| serde_json::from_slice::<Value>(&b).unwrap_or(Value::Null))
+        else {
+            continue;
+        };
+        let rec: Value = std::fs::read(dir.join(format!("{id}.record.json")))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or(Value::Null);
         let row = |c: &Value| ClaimRow {
             stage: id.clone(),
             id: c.get("id").and_then(|v| v.as_str()).unwrap_or("").to_string(),
@@ -120,8 +163,16 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
             pass: c.get("pass").and_then(|p| p.as_bool()).unwrap_or(false),
             calibrated: c.get("calibrated").and_then(|p| p.as_bool()).unwrap_or(false),
         };
-        let stage_claims: Vec<ClaimRow> = res.get("claims").and_then(|c| c.as_array()).map(|a| a.iter().map(row).collect()).unwrap_or_default();
-        let stage_checks: Vec<ClaimRow> = res.get("checks").and_then(|c| c.as_array()).map(|a| a.iter().map(row).collect()).unwrap_or_default();
+        let stage_claims: Vec<ClaimRow> = res
+            .get("claims")
+            .and_then(|c| c.as_array())
+            .map(|a| a.iter().map(row).collect())
+            .unwrap_or_default();
+        let stage_checks: Vec<ClaimRow> = res
+            .get("checks")
+            .and_then(|c| c.as_array())
+            .map(|a| a.iter().map(row).collect())
+            .unwrap_or_default();
         if *sec != current {
             current = *sec;
             let _ = write!(body, "<h2 id=\"section-{current}\">{}</h2>", esc(SECTIONS[current]));
@@ -129,15 +180,46 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         let caption = rec.get("caption").and_then(|c| c.as_str()).unwrap_or("");
         let has_svg = dir.join(format!("{id}.svg")).exists();
         let ms = methods(&rec);
-        let err_note: Vec<String> = ms.iter().filter_map(|m| perr.get(*m).map(|(set, e, se, w)| format!("{} error at the {profile} setting ({set}): {} · one run there {:.1} s", m.to_uppercase(), pct(*e, *se), w))).collect();
+        let err_note: Vec<String> = ms
+            .iter()
+            .filter_map(|m| {
+                perr.get(*m).map(|(set, e, se, w)| {
+                    format!(
+                        "{} error at the {profile} setting ({set}): {} · one run there {:.1} s",
+                        m.to_uppercase(),
+                        pct(*e, *se),
+                        w
+                    )
+                })
+            })
+            .collect();
         if has_svg {
             let stage_wall = rec.get("wall_s").and_then(|v| v.as_f64());
             let (e_cell, w_cell) = if err_note.is_empty() {
-                (if ms.is_empty() { "— (no simulation: inputs and stated laws)".to_string() } else { "— (no work-precision stage for this method)".to_string() }, "—".to_string())
+                (
+                    if ms.is_empty() {
+                        "— (no simulation: inputs and stated laws)".to_string()
+                    } else {
+                        "— (no work-precision stage for this method)".to_string()
+                    },
+                    "—".to_string(),
+                )
             } else {
                 (
-                    ms.iter().filter_map(|m| perr.get(*m).map(|(set, e, se, _)| format!("{} {} ({})", m.to_uppercase(), pct(*e, *se), esc(set)))).collect::<Vec<_>>().join("; "),
-                    ms.iter().filter_map(|m| perr.get(*m).map(|(_, _, _, w)| format!("{} {:.1} s", m.to_uppercase(), w))).collect::<Vec<_>>().join("; "),
+                    ms.iter()
+                        .filter_map(|m| {
+                            perr.get(*m)
+                                .map(|(set, e, se, _)| format!("{} {} ({})", m.to_uppercase(), pct(*e, *se), esc(set)))
+                        })
+                        .collect::<Vec<_>>()
+                        .join("; "),
+                    ms.iter()
+                        .filter_map(|m| {
+                            perr.get(*m)
+                                .map(|(_, _, _, w)| format!("{} {:.1} s", m.to_uppercase(), w))
+                        })
+                        .collect::<Vec<_>>()
+                        .join("; "),
                 )
             };
             let _ = write!(
@@ -152,7 +234,11 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         }
         let _ = write!(body, "<figure id=\"{i}\"><h3>{i}</h3>", i = esc(id));
         if has_svg {
-            let _ = write!(body, "<img src=\"{i}.svg\" alt=\"{i}\" style=\"max-width:100%\">", i = esc(id));
+            let _ = write!(
+                body,
+                "<img src=\"{i}.svg\" alt=\"{i}\" style=\"max-width:100%\">",
+                i = esc(id)
+            );
         }
         let _ = write!(
             body,
@@ -161,8 +247,15 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
             esc(profile),
             esc(rec.get("kind").and_then(|v| v.as_str()).unwrap_or("?")),
             rec.get("solver_version").map(|v| v.to_string()).unwrap_or_default(),
-            rec.get("wall_s").and_then(|v| v.as_f64()).map(|w| format!("{w:.2}")).unwrap_or_default(),
-            if err_note.is_empty() { String::new() } else { format!(" · {} (wp-summary)", esc(&err_note.join("; "))) },
+            rec.get("wall_s")
+                .and_then(|v| v.as_f64())
+                .map(|w| format!("{w:.2}"))
+                .unwrap_or_default(),
+            if err_note.is_empty() {
+                String::new()
+            } else {
+                format!(" · {} (wp-summary)", esc(&err_note.join("; ")))
+            },
             i = esc(id)
         );
         if let Some(notes) = rec.get("notes").and_then(|n| n.as_array()) {
@@ -190,7 +283,11 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         }
         if !stage_checks.is_empty() {
             let failed = stage_checks.iter().filter(|c| !c.pass).count();
-            let _ = write!(body, "<p><small>{} consistency check(s), {failed} failed — listed under <a href=\"#checks\">input and consistency checks</a></small></p>", stage_checks.len());
+            let _ = write!(
+                body,
+                "<p><small>{} consistency check(s), {failed} failed — listed under <a href=\"#checks\">input and consistency checks</a></small></p>",
+                stage_checks.len()
+            );
         }
         body.push_str("</figcaption></figure>\n");
         claims[*sec].extend(stage_claims);
@@ -198,8 +295,15 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
     }
     // summary of the claims, per section
     let all: Vec<&ClaimRow> = claims.iter().flatten().collect();
-    let (n_pass, n_fail, n_cal) = (all.iter().filter(|c| c.pass && !c.calibrated).count(), all.iter().filter(|c| !c.pass && !c.calibrated).count(), all.iter().filter(|c| c.calibrated).count());
-    let (n_check_pass, n_check_fail) = (checks.iter().filter(|c| c.pass).count(), checks.iter().filter(|c| !c.pass).count());
+    let (n_pass, n_fail, n_cal) = (
+        all.iter().filter(|c| c.pass && !c.calibrated).count(),
+        all.iter().filter(|c| !c.pass && !c.calibrated).count(),
+        all.iter().filter(|c| c.calibrated).count(),
+    );
+    let (n_check_pass, n_check_fail) = (
+        checks.iter().filter(|c| c.pass).count(),
+        checks.iter().filter(|c| !c.pass).count(),
+    );
     let _ = write!(
         h,
         "<p>{} stages · <b>claims of the chapter: {n_pass} reproduced, {n_fail} not reproduced</b>, {n_cal} rest on a calibrated parameter (not counted) · consistency checks (inputs, identities; not claims): {n_check_pass} ok, {n_check_fail} failed</p>",
@@ -210,7 +314,18 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         if cs.is_empty() {
             continue;
         }
-        let list: Vec<String> = cs.iter().map(|c| format!("<a href=\"#{s}\">{s}</a>: {} <span class=\"{}\">{}</span>", esc(&c.id), if c.pass { "pass" } else { "fail" }, verdict(c.pass, c.calibrated), s = esc(&c.stage))).collect();
+        let list: Vec<String> = cs
+            .iter()
+            .map(|c| {
+                format!(
+                    "<a href=\"#{s}\">{s}</a>: {} <span class=\"{}\">{}</span>",
+                    esc(&c.id),
+                    if c.pass { "pass" } else { "fail" },
+                    verdict(c.pass, c.calibrated),
+                    s = esc(&c.stage)
+                )
+            })
+            .collect();
         let _ = write!(
             h,
             "<tr><td><a href=\"#section-{k}\">{}</a></td><td>{}</td><td>{}</td><td>{}</td><td><small>{}</small></td></tr>",
@@ -226,7 +341,11 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
     if perr.is_empty() {
         h.push_str("<p><small>The work-precision atlas (<code>wp-summary</code>) has not been run for this profile: no measured errors to show.</small></p>");
     } else {
-        let _ = write!(h, "<p><small>One row per figure: the measured error of its method at the {p} profile's setting (relative to that method's finest setting, ± standard error over an ensemble where one was run) and the wall time of one run at that setting, both read from <a href=\"#wp-summary\">wp-summary</a>; the last column is the wall time of the figure's own stage.</small></p>", p = esc(profile));
+        let _ = write!(
+            h,
+            "<p><small>One row per figure: the measured error of its method at the {p} profile's setting (relative to that method's finest setting, ± standard error over an ensemble where one was run) and the wall time of one run at that setting, both read from <a href=\"#wp-summary\">wp-summary</a>; the last column is the wall time of the figure's own stage.</small></p>",
+            p = esc(profile)
+        );
     }
     h.push_str("<table><tr><th>figure</th><th>profile</th><th>measured error (setting)</th><th>one run at that setting</th><th>stage wall time</th></tr>");
     h.push_str(&ervt);

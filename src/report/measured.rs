@@ -37,12 +37,28 @@ pub fn parse_profile_csv(text: &str) -> ProfileErrors {
     let mut lines = text.lines();
     let head: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
     let col = |k: &str| head.iter().position(|h| *h == k);
-    let (Some(m), Some(s), Some(e), Some(se), Some(w)) = (col("method"), col("setting"), col("rel_error"), col("rel_error_se"), col("wall_s")) else { return out };
+    let (Some(m), Some(s), Some(e), Some(se), Some(w)) = (
+        col("method"),
+        col("setting"),
+        col("rel_error"),
+        col("rel_error_se"),
+        col("wall_s"),
+    ) else {
+        return out;
+    };
     for l in lines {
         let f: Vec<&str> = l.split(',').collect();
         let x = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
         if let (Some(mm), Some(ss)) = (f.get(m), f.get(s)) {
-            out.insert(mm.to_string(), MethodError { setting: ss.to_string(), error: x(e), error_se: x(se), wall_s: x(w) });
+            out.insert(
+                mm.to_string(),
+                MethodError {
+                    setting: ss.to_string(),
+                    error: x(e),
+                    error_se: x(se),
+                    wall_s: x(w),
+                },
+            );
         }
     }
     out
@@ -72,7 +88,16 @@ pub fn methods(rec: &Value) -> Vec<&'static str> {
     let inputs: Vec<(String, String)> = rec
         .get("inputs")
         .and_then(|v| v.as_array())
-        .map(|a| a.iter().map(|i| (i["role"].as_str().unwrap_or("").to_string(), i["id"].as_str().unwrap_or("").to_string())).collect())
+        .map(|a| {
+            a.iter()
+                .map(|i| {
+                    (
+                        i["role"].as_str().unwrap_or("").to_string(),
+                        i["id"].as_str().unwrap_or("").to_string(),
+                    )
+                })
+                .collect()
+        })
         .unwrap_or_default();
     if let Some((_, id)) = inputs.iter().find(|(r, _)| r == "wp") {
         return engine(id).into_iter().collect();
@@ -93,7 +118,11 @@ pub fn pct(e: f64, se: f64) -> String {
     if !e.is_finite() {
         return "—".into();
     }
-    if se.is_finite() { format!("{:.1} ± {:.1} %", 100.0 * e, 100.0 * se) } else { format!("{:.1} %", 100.0 * e) }
+    if se.is_finite() {
+        format!("{:.1} ± {:.1} %", 100.0 * e, 100.0 * se)
+    } else {
+        format!("{:.1} %", 100.0 * e)
+    }
 }
 
 /// The footer line of a stage's figures: its methods' measured errors and one-run wall
@@ -101,10 +130,24 @@ pub fn pct(e: f64, se: f64) -> String {
 pub fn footer_line(profile: &str, ms: &[&str], errs: &ProfileErrors) -> String {
     let parts: Vec<String> = ms
         .iter()
-        .filter_map(|m| errs.get(*m).map(|e| format!("{} error {} at {}, the setting standing for the {profile} profile (one run {:.1} s)", m.to_uppercase(), pct(e.error, e.error_se), e.setting, e.wall_s)))
+        .filter_map(|m| {
+            errs.get(*m).map(|e| {
+                format!(
+                    "{} error {} at {}, the setting standing for the {profile} profile (one run {:.1} s)",
+                    m.to_uppercase(),
+                    pct(e.error, e.error_se),
+                    e.setting,
+                    e.wall_s
+                )
+            })
+        })
         .collect();
     if parts.is_empty() {
-        if ms.is_empty() { "measured error: — (no simulation)".to_string() } else { "measured error: — (wp-summary not run for this profile)".to_string() }
+        if ms.is_empty() {
+            "measured error: — (no simulation)".to_string()
+        } else {
+            "measured error: — (wp-summary not run for this profile)".to_string()
+        }
     } else {
         format!("measured (wp-summary): {}", parts.join("; "))
     }
@@ -123,9 +166,13 @@ pub fn json_block(profile: &str, ms: &[&str], errs: &ProfileErrors) -> Value {
 /// `viewBox`), the line is drawn in the new strip. An SVG whose root tag cannot be read is
 /// returned unchanged.
 pub fn stamp_svg(bytes: Vec<u8>, line: &str) -> Vec<u8> {
-    let Ok(text) = String::from_utf8(bytes.clone()) else { return bytes };
+    let Ok(text) = String::from_utf8(bytes.clone()) else {
+        return bytes;
+    };
     let Some(start) = text.find("<svg") else { return bytes };
-    let Some(len) = text[start..].find('>') else { return bytes };
+    let Some(len) = text[start..].find('>') else {
+        return bytes;
+    };
     let tag = &text[start..start + len];
     let attr = |name: &str| -> Option<(usize, usize, String)> {
         let key = format!(" {name}=\"");
@@ -133,8 +180,18 @@ pub fn stamp_svg(bytes: Vec<u8>, line: &str) -> Vec<u8> {
         let b = a + tag[a..].find('"')?;
         Some((a, b, tag[a..b].to_string()))
     };
-    let (Some((ha, hb, h)), Some((va, vb, vb_text))) = (attr("height"), attr("viewBox")) else { return bytes };
-    let (Ok(height), vb_nums) = (h.parse::<f64>(), vb_text.split_whitespace().map(|v| v.parse::<f64>()).collect::<Result<Vec<f64>, _>>()) else { return bytes };
+    let (Some((ha, hb, h)), Some((va, vb, vb_text))) = (attr("height"), attr("viewBox")) else {
+        return bytes;
+    };
+    let (Ok(height), vb_nums) = (
+        h.parse::<f64>(),
+        vb_text
+            .split_whitespace()
+            .map(|v| v.parse::<f64>())
+            .collect::<Result<Vec<f64>, _>>(),
+    ) else {
+        return bytes;
+    };
     let Ok(vbn) = vb_nums else { return bytes };
     if vbn.len() != 4 {
         return bytes;
@@ -144,7 +201,10 @@ pub fn stamp_svg(bytes: Vec<u8>, line: &str) -> Vec<u8> {
     let y0 = vbn[1] + vbn[3];
     let mut new_tag = tag.to_string();
     // replace the later attribute first so the earlier offsets stay valid
-    let mut edits = [(ha, hb, format!("{}", height + strip)), (va, vb, format!("{} {} {} {}", vbn[0], vbn[1], vbn[2], vbn[3] + strip))];
+    let mut edits = [
+        (ha, hb, format!("{}", height + strip)),
+        (va, vb, format!("{} {} {} {}", vbn[0], vbn[1], vbn[2], vbn[3] + strip)),
+    ];
     edits.sort_by(|a, b| b.0.cmp(&a.0));
     for (a, b, v) in edits {
         new_tag.replace_range(a..b, &v);
@@ -175,7 +235,10 @@ mod tests {
     fn stamp_grows_the_canvas_and_adds_the_line() {
         let svg = "<svg width=\"760\" height=\"520\" viewBox=\"0 0 760 520\" xmlns=\"http://www.w3.org/2000/svg\">\n<rect/>\n</svg>\n".as_bytes().to_vec();
         let out = String::from_utf8(stamp_svg(svg, "DEM error 7.3 ± 9.4 % <x>")).unwrap();
-        assert!(out.starts_with("<svg width=\"760\" height=\"536\" viewBox=\"0 0 760 536\""), "{out}");
+        assert!(
+            out.starts_with("<svg width=\"760\" height=\"536\" viewBox=\"0 0 760 536\""),
+            "{out}"
+        );
         assert!(out.contains(">DEM error 7.3 ± 9.4 % &lt;x&gt;</text>\n</svg>"), "{out}");
         assert!(out.contains("y=\"532\""), "{out}");
         // snapshot figures write xmlns first and fractional sizes
@@ -188,14 +251,19 @@ mod tests {
 
     #[test]
     fn profile_table_and_methods_give_the_line() {
-        let errs = parse_profile_csv("method,setting,quantity,rel_error,rel_error_se,wall_s\ndem,k0.01-dt0.05,runout,0.073,0.094,10.8\nmpm,ppc4-h2mm-C0.5,runout,0.052,,1.7\n");
+        let errs = parse_profile_csv(
+            "method,setting,quantity,rel_error,rel_error_se,wall_s\ndem,k0.01-dt0.05,runout,0.073,0.094,10.8\nmpm,ppc4-h2mm-C0.5,runout,0.052,,1.7\n",
+        );
         assert_eq!(errs["dem"].setting, "k0.01-dt0.05");
         assert!(errs["mpm"].error_se.is_nan());
         let rec = json!({ "kind": "plot", "inputs": [{ "role": "dem", "id": "col-dem" }, { "role": "wp", "id": "wp-mpm-column" }] });
         assert_eq!(methods(&rec), vec!["mpm"]);
         assert_eq!(methods(&json!({ "kind": "dem-collapse", "inputs": [] })), vec!["dem"]);
         let l = footer_line("quick", &["dem"], &errs);
-        assert_eq!(l, "measured (wp-summary): DEM error 7.3 ± 9.4 % at k0.01-dt0.05, the setting standing for the quick profile (one run 10.8 s)");
+        assert_eq!(
+            l,
+            "measured (wp-summary): DEM error 7.3 ± 9.4 % at k0.01-dt0.05, the setting standing for the quick profile (one run 10.8 s)"
+        );
         assert_eq!(footer_line("quick", &[], &errs), "measured error: — (no simulation)");
         let j = json_block("quick", &["mpm"], &errs);
         assert_eq!(j["methods"][0]["rel_error"], json!(0.052));

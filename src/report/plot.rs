@@ -36,7 +36,13 @@ pub struct Series {
 impl Series {
     /// New series.
     pub fn new(label: impl Into<String>, style: Style, points: Vec<(f64, f64)>, color: usize) -> Series {
-        Series { label: label.into(), style, points, color, y_err: None }
+        Series {
+            label: label.into(),
+            style,
+            points,
+            color,
+            y_err: None,
+        }
     }
     /// The same series with ± `err` bars (one per point).
     pub fn with_errors(mut self, err: Vec<f64>) -> Series {
@@ -87,11 +93,24 @@ pub enum Legend {
 impl Chart {
     /// A chart on log–log axes.
     pub fn log_log(title: String, footer: String, x_label: &str, y_label: &str, series: Vec<Series>) -> Chart {
-        Chart { title, footer, x_label: x_label.into(), y_label: y_label.into(), x_log: true, y_log: true, series, legend: Legend::LowerRight, ..Default::default() }
+        Chart {
+            title,
+            footer,
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            x_log: true,
+            y_log: true,
+            series,
+            legend: Legend::LowerRight,
+            ..Default::default()
+        }
     }
     /// A work-precision chart: run-out error against the finest run vs wall time.
     pub fn work_precision(title: String, footer: String, series: Vec<Series>) -> Chart {
-        Chart { legend: Legend::LowerLeft, ..Chart::log_log(title, footer, "wall time [s]", "|ΔL − ΔL_ref| / ΔL_ref", series) }
+        Chart {
+            legend: Legend::LowerLeft,
+            ..Chart::log_log(title, footer, "wall time [s]", "|ΔL − ΔL_ref| / ΔL_ref", series)
+        }
     }
 }
 
@@ -139,8 +158,18 @@ impl Chart {
     /// Draw the chart (without its footer) into one panel of a drawing.
     fn draw_into<DB: DrawingBackend>(&self, body: &DrawingArea<DB, plotters::coord::Shift>) -> anyhow::Result<()> {
         {
-            let xr = self.x_range.unwrap_or_else(|| range(self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), self.x_log));
-            let yr = self.y_range.unwrap_or_else(|| range(self.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), self.y_log));
+            let xr = self.x_range.unwrap_or_else(|| {
+                range(
+                    self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+                    self.x_log,
+                )
+            });
+            let yr = self.y_range.unwrap_or_else(|| {
+                range(
+                    self.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
+                    self.y_log,
+                )
+            });
             // Long captions shrink to fit the width (plotters captions are one line).
             let title_size = (17.0 * (88.0 / self.title.chars().count().max(1) as f64).min(1.0)).max(9.0);
             macro_rules! draw {
@@ -167,7 +196,9 @@ impl Chart {
                             .points
                             .iter()
                             .copied()
-                            .filter(|(x, y)| x.is_finite() && y.is_finite() && (!self.x_log || *x > 0.0) && (!self.y_log || *y > 0.0))
+                            .filter(|(x, y)| {
+                                x.is_finite() && y.is_finite() && (!self.x_log || *x > 0.0) && (!self.y_log || *y > 0.0)
+                            })
                             .collect();
                         let legend_style = c.stroke_width(2);
                         if let Some(err) = &s.y_err {
@@ -175,30 +206,54 @@ impl Chart {
                                 .points
                                 .iter()
                                 .zip(err)
-                                .filter(|((x, y), e)| x.is_finite() && y.is_finite() && e.is_finite() && (!self.x_log || *x > 0.0) && (!self.y_log || *y > 0.0))
+                                .filter(|((x, y), e)| {
+                                    x.is_finite()
+                                        && y.is_finite()
+                                        && e.is_finite()
+                                        && (!self.x_log || *x > 0.0)
+                                        && (!self.y_log || *y > 0.0)
+                                })
                                 .map(|(&(x, y), &e)| {
                                     let lo = if self.y_log { (y - e).max(y * 1e-3) } else { y - e };
                                     vec![(x, lo), (x, y + e)]
                                 })
                                 .collect();
-                            chart.draw_series(bars.into_iter().map(|b| PathElement::new(b, c.stroke_width(1)))).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                            chart
+                                .draw_series(bars.into_iter().map(|b| PathElement::new(b, c.stroke_width(1))))
+                                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
                         }
                         let ann = match s.style {
-                            Style::Line => chart.draw_series(LineSeries::new(pts, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?,
-                            Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 8, 5, c.stroke_width(2))).map_err(|e| anyhow::anyhow!("{e:?}"))?,
-                            Style::Points => chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| anyhow::anyhow!("{e:?}"))?,
+                            Style::Line => chart
+                                .draw_series(LineSeries::new(pts, c.stroke_width(2)))
+                                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
+                            Style::Dashed => chart
+                                .draw_series(DashedLineSeries::new(pts, 8, 5, c.stroke_width(2)))
+                                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
+                            Style::Points => chart
+                                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                                .map_err(|e| anyhow::anyhow!("{e:?}"))?,
                             Style::LinePoints => {
-                                chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(1))).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-                                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| anyhow::anyhow!("{e:?}"))?
+                                chart
+                                    .draw_series(LineSeries::new(pts.clone(), c.stroke_width(1)))
+                                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                                chart
+                                    .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
                             }
                         };
                         // an empty label draws without a legend entry (e.g. the second edge of a band)
                         if !s.label.is_empty() {
                             let ann = ann.label(s.label.as_str());
                             match s.style {
-                                Style::Line => { ann.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style)); }
-                                Style::Dashed => { ann.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], legend_style)); }
-                                Style::Points | Style::LinePoints => { ann.legend(move |(x, y)| Circle::new((x + 9, y), 3, c.filled())); }
+                                Style::Line => {
+                                    ann.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], legend_style));
+                                }
+                                Style::Dashed => {
+                                    ann.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], legend_style));
+                                }
+                                Style::Points | Style::LinePoints => {
+                                    ann.legend(move |(x, y)| Circle::new((x + 9, y), 3, c.filled()));
+                                }
                             }
                         }
                     }
@@ -237,8 +292,12 @@ pub fn panels_to_svg(charts: &[Chart], cols: usize, footer: &str) -> anyhow::Res
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
         let (body, foot) = root.split_vertically(h - 25);
-        foot.draw(&Text::new(footer.to_string(), (10, 5), ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90))))
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        foot.draw(&Text::new(
+            footer.to_string(),
+            (10, 5),
+            ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
+        ))
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         let areas = body.split_evenly((rows, cols));
         for (c, area) in charts.iter().zip(areas.iter()) {
             c.draw_into(area)?;
@@ -259,7 +318,11 @@ pub fn tick(v: f64) -> String {
         return format!("{v:.2e}").replace(".00e", "e").replace("0e", "e");
     }
     let s = format!("{:.*}", (2 - a.log10().floor() as i32).max(0) as usize, v);
-    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 #[cfg(test)]

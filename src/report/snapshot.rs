@@ -70,13 +70,23 @@ pub struct Snapshot<'a> {
 
 /// Perceptually ordered colour map (viridis-like, 5 anchors, linear in between).
 pub fn colormap(t: f64) -> (u8, u8, u8) {
-    const A: [(f64, f64, f64); 5] = [(68.0, 1.0, 84.0), (59.0, 82.0, 139.0), (33.0, 145.0, 140.0), (94.0, 201.0, 98.0), (253.0, 231.0, 37.0)];
+    const A: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
     let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
     let s = t * 4.0;
     let i = (s.floor() as usize).min(3);
     let f = s - i as f64;
     let (a, b) = (A[i], A[i + 1]);
-    ((a.0 + f * (b.0 - a.0)) as u8, (a.1 + f * (b.1 - a.1)) as u8, (a.2 + f * (b.2 - a.2)) as u8)
+    (
+        (a.0 + f * (b.0 - a.0)) as u8,
+        (a.1 + f * (b.1 - a.1)) as u8,
+        (a.2 + f * (b.2 - a.2)) as u8,
+    )
 }
 
 impl Snapshot<'_> {
@@ -119,9 +129,21 @@ impl Snapshot<'_> {
         let px = |x: f64| ml + (x - x0) * scale;
         let py = |y: f64| mt + (y1 - y) * scale;
         let mut s = String::with_capacity(120 * n + 4096);
-        let _ = write!(s, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{tw:.0}\" height=\"{th:.0}\" viewBox=\"0 0 {tw:.1} {th:.1}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
-        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"24\" font-family=\"sans-serif\" font-size=\"{:.1}\" text-anchor=\"middle\">{}</text>", tw / 2.0, (1.9 * tw / self.title.chars().count().max(1) as f64).clamp(8.0, 15.0), esc(&self.title));
-        let _ = writeln!(s, "<rect x=\"{ml}\" y=\"{mt}\" width=\"{w:.1}\" height=\"{h:.1}\" fill=\"none\" stroke=\"#bbb\"/>");
+        let _ = write!(
+            s,
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{tw:.0}\" height=\"{th:.0}\" viewBox=\"0 0 {tw:.1} {th:.1}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+        );
+        let _ = writeln!(
+            s,
+            "<text x=\"{:.1}\" y=\"24\" font-family=\"sans-serif\" font-size=\"{:.1}\" text-anchor=\"middle\">{}</text>",
+            tw / 2.0,
+            (1.9 * tw / self.title.chars().count().max(1) as f64).clamp(8.0, 15.0),
+            esc(&self.title)
+        );
+        let _ = writeln!(
+            s,
+            "<rect x=\"{ml}\" y=\"{mt}\" width=\"{w:.1}\" height=\"{h:.1}\" fill=\"none\" stroke=\"#bbb\"/>"
+        );
         let _ = writeln!(s, "<g stroke=\"none\">");
         for i in 0..n {
             let fill = if self.black.is_some_and(|b| b[i]) {
@@ -135,11 +157,24 @@ impl Snapshot<'_> {
             };
             match self.shape {
                 Shape::Disk => {
-                    let _ = writeln!(s, "<circle cx=\"{:.2}\" cy=\"{:.2}\" r=\"{:.2}\" fill=\"{fill}\"/>", px(self.x[i]), py(self.y[i]), (self.half[i] * scale).max(0.3));
+                    let _ = writeln!(
+                        s,
+                        "<circle cx=\"{:.2}\" cy=\"{:.2}\" r=\"{:.2}\" fill=\"{fill}\"/>",
+                        px(self.x[i]),
+                        py(self.y[i]),
+                        (self.half[i] * scale).max(0.3)
+                    );
                 }
                 Shape::Square => {
                     let hw = (self.half[i] * scale).max(0.3);
-                    let _ = writeln!(s, "<rect x=\"{:.2}\" y=\"{:.2}\" width=\"{:.2}\" height=\"{:.2}\" fill=\"{fill}\"/>", px(self.x[i]) - hw, py(self.y[i]) - hw, 2.0 * hw, 2.0 * hw);
+                    let _ = writeln!(
+                        s,
+                        "<rect x=\"{:.2}\" y=\"{:.2}\" width=\"{:.2}\" height=\"{:.2}\" fill=\"{fill}\"/>",
+                        px(self.x[i]) - hw,
+                        py(self.y[i]) - hw,
+                        2.0 * hw,
+                        2.0 * hw
+                    );
                 }
             }
         }
@@ -148,7 +183,12 @@ impl Snapshot<'_> {
             let _ = writeln!(
                 s,
                 "<line x1=\"{:.2}\" y1=\"{:.2}\" x2=\"{:.2}\" y2=\"{:.2}\" stroke=\"{}\" stroke-width=\"{}\"{}/>",
-                px(seg.a.0), py(seg.a.1), px(seg.b.0), py(seg.b.1), seg.color, seg.width,
+                px(seg.a.0),
+                py(seg.a.1),
+                px(seg.b.0),
+                py(seg.b.1),
+                seg.color,
+                seg.width,
                 if seg.dashed { " stroke-dasharray=\"6 4\"" } else { "" }
             );
         }
@@ -157,7 +197,11 @@ impl Snapshot<'_> {
             let span = (hi - lo) * 1e3;
             let raw = span / 6.0;
             let mag = 10f64.powf(raw.log10().floor());
-            let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+            let step = [1.0, 2.0, 5.0, 10.0]
+                .iter()
+                .map(|m| m * mag)
+                .find(|s| *s >= raw)
+                .unwrap_or(10.0 * mag);
             let mut v = Vec::new();
             let mut t = (lo * 1e3 / step).ceil() * step;
             while t <= hi * 1e3 + 1e-9 {
@@ -167,37 +211,97 @@ impl Snapshot<'_> {
             v
         };
         for t in ticks(x0, x1) {
-            let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" text-anchor=\"middle\">{}</text>", px(t * 1e-3), mt + h + 16.0, fmt_tick(t));
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" text-anchor=\"middle\">{}</text>",
+                px(t * 1e-3),
+                mt + h + 16.0,
+                fmt_tick(t)
+            );
         }
         for t in ticks(y0, y1) {
-            let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" text-anchor=\"end\">{}</text>", ml - 5.0, py(t * 1e-3) + 4.0, fmt_tick(t));
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" text-anchor=\"end\">{}</text>",
+                ml - 5.0,
+                py(t * 1e-3) + 4.0,
+                fmt_tick(t)
+            );
         }
-        let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\">x [mm]</text>", ml + w / 2.0, mt + h + 34.0);
-        let _ = writeln!(s, "<text x=\"14\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\" transform=\"rotate(-90 14 {:.1})\">y [mm]</text>", mt + h / 2.0, mt + h / 2.0);
+        let _ = writeln!(
+            s,
+            "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\">x [mm]</text>",
+            ml + w / 2.0,
+            mt + h + 34.0
+        );
+        let _ = writeln!(
+            s,
+            "<text x=\"14\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"12\" text-anchor=\"middle\" transform=\"rotate(-90 14 {:.1})\">y [mm]</text>",
+            mt + h / 2.0,
+            mt + h / 2.0
+        );
         if let Some(f) = &self.field {
             let bx = ml + w + 25.0;
             let bh = h.clamp(60.0, 300.0);
             for k in 0..50 {
                 let t = 1.0 - k as f64 / 49.0;
                 let (r, g, b) = colormap(t);
-                let _ = writeln!(s, "<rect x=\"{bx:.1}\" y=\"{:.2}\" width=\"16\" height=\"{:.2}\" fill=\"#{r:02x}{g:02x}{b:02x}\"/>", mt + bh * k as f64 / 50.0, bh / 50.0 + 0.5);
+                let _ = writeln!(
+                    s,
+                    "<rect x=\"{bx:.1}\" y=\"{:.2}\" width=\"16\" height=\"{:.2}\" fill=\"#{r:02x}{g:02x}{b:02x}\"/>",
+                    mt + bh * k as f64 / 50.0,
+                    bh / 50.0 + 0.5
+                );
             }
-            let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\">{}</text>", bx + 20.0, mt + 9.0, fmt_val(f.range.1));
-            let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\">{}</text>", bx + 20.0, mt + bh, fmt_val(f.range.0));
-            let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" transform=\"rotate(-90 {:.1} {:.1})\" text-anchor=\"middle\">{}</text>", bx + 75.0, mt + bh / 2.0, bx + 75.0, mt + bh / 2.0, esc(&f.label));
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\">{}</text>",
+                bx + 20.0,
+                mt + 9.0,
+                fmt_val(f.range.1)
+            );
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\">{}</text>",
+                bx + 20.0,
+                mt + bh,
+                fmt_val(f.range.0)
+            );
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"11\" transform=\"rotate(-90 {:.1} {:.1})\" text-anchor=\"middle\">{}</text>",
+                bx + 75.0,
+                mt + bh / 2.0,
+                bx + 75.0,
+                mt + bh / 2.0,
+                esc(&f.label)
+            );
         }
-        let _ = writeln!(s, "<text x=\"8\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"10\" fill=\"#555\">{}</text>", th - 8.0, esc(&self.footer));
+        let _ = writeln!(
+            s,
+            "<text x=\"8\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"10\" fill=\"#555\">{}</text>",
+            th - 8.0,
+            esc(&self.footer)
+        );
         s.push_str("</svg>\n");
         s
     }
 }
 
 fn fmt_tick(t: f64) -> String {
-    if (t - t.round()).abs() < 1e-9 { format!("{}", t.round() as i64) } else { format!("{t:.1}") }
+    if (t - t.round()).abs() < 1e-9 {
+        format!("{}", t.round() as i64)
+    } else {
+        format!("{t:.1}")
+    }
 }
 
 fn fmt_val(v: f64) -> String {
-    if v != 0.0 && (v.abs() < 1e-2 || v.abs() >= 1e4) { format!("{v:.2e}") } else { format!("{v:.3}") }
+    if v != 0.0 && (v.abs() < 1e-2 || v.abs() >= 1e4) {
+        format!("{v:.2e}")
+    } else {
+        format!("{v:.3}")
+    }
 }
 
 fn esc(s: &str) -> String {
@@ -220,10 +324,20 @@ mod tests {
             y: &y,
             half: &r,
             shape: Shape::Disk,
-            field: Some(Field { values: &v, label: "|v| [m/s]".into(), range: (0.0, 1.0) }),
+            field: Some(Field {
+                values: &v,
+                label: "|v| [m/s]".into(),
+                range: (0.0, 1.0),
+            }),
             black: None,
             fill: None,
-            segments: vec![Segment { a: (0.0, 0.0), b: (0.0, 0.002), color: "black", width: 2.0, dashed: false }],
+            segments: vec![Segment {
+                a: (0.0, 0.0),
+                b: (0.0, 0.002),
+                color: "black",
+                width: 2.0,
+                dashed: false,
+            }],
             view: Some((0.0, 0.004, 0.0, 0.002)),
             width_px: 400.0,
         };

@@ -267,23 +267,40 @@ mod tests {
     #[test]
     fn uniform_by_volume_matches_closed_form_number_density() {
         // β(1,1): number CDF N(d) = (1/d_min − 1/d)/(1/d_min − 1/d_max) (figures.md SC-PSD).
-        let g = BetaGrading { d_min: 0.92e-3, d_max: 1.38e-3, a: 1.0, b: 1.0 };
+        let g = BetaGrading {
+            d_min: 0.92e-3,
+            d_max: 1.38e-3,
+            a: 1.0,
+            b: 1.0,
+        };
         let d = g.sample(20000, 7);
         let s = stats(&d);
         assert!((s.d_mean_volume - 1.15e-3).abs() < 0.003e-3, "{}", s.d_mean_volume);
         // Number mean of n ∝ d⁻²: ln(r)/(1/dmin − 1/dmax).
         let expect = (1.38f64 / 0.92).ln() / (1.0 / 0.92e-3 - 1.0 / 1.38e-3);
-        assert!((s.d_mean_number - expect).abs() < 0.002e-3, "{} vs {expect}", s.d_mean_number);
+        assert!(
+            (s.d_mean_number - expect).abs() < 0.002e-3,
+            "{} vs {expect}",
+            s.d_mean_number
+        );
         assert!(ks_distance(&d, &g) < 0.01);
     }
 
     #[test]
     fn sampling_is_deterministic_for_a_seed() {
-        let g = BetaGrading { d_min: 1.0, d_max: 2.0, a: 4.0, b: 4.0 };
+        let g = BetaGrading {
+            d_min: 1.0,
+            d_max: 2.0,
+            a: 4.0,
+            b: 4.0,
+        };
         let a = g.sample(500, 42);
         let b = g.sample(500, 42);
         let c = g.sample(500, 43);
-        assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+        assert_eq!(
+            a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
         assert_ne!(a, c);
         assert!(a.iter().all(|&x| (1.0..=2.0).contains(&x)));
     }

@@ -115,7 +115,14 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
                 drop = drop.max(best - v);
             }
             gap_col.push(gd);
-            for (c, v) in cols.iter_mut().zip([dl(1.0), dl(2.0), dl(3.0), dl(f64::INFINITY), drop / r.l0, lk.len() as f64]) {
+            for (c, v) in cols.iter_mut().zip([
+                dl(1.0),
+                dl(2.0),
+                dl(3.0),
+                dl(f64::INFINITY),
+                drop / r.l0,
+                lk.len() as f64,
+            ]) {
                 c.push(v);
             }
         }
@@ -133,7 +140,10 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
         let mut ts = vec![("t_over_tau_c", tn.clone())];
         let names: Vec<String> = r.gaps.iter().map(|g| format!("runout_norm_gap{g}")).collect();
         for (k, n) in names.iter().enumerate() {
-            ts.push((n.as_str(), r.gap_lengths.iter().map(|row| (row[k] - r.l0) / r.l0).collect()));
+            ts.push((
+                n.as_str(),
+                r.gap_lengths.iter().map(|row| (row[k] - r.l0) / r.l0).collect(),
+            ));
         }
         out.table("runout_by_gap", frame(ts)?);
     }
@@ -173,8 +183,15 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
     let i_p95_max = flowing.iter().map(|s| s.p95).fold(0.0, f64::max);
     let i_max = flowing.iter().map(|s| s.max).fold(0.0, f64::max);
     // The same mean with static cells counted as I = 0 (a whole-mass average).
-    let i_all_max = r.inertial.iter().map(|s| s.mean * s.flowing_fraction).fold(0.0, f64::max);
-    out.scalar("i_cg_mean_max", i_mean_max).scalar("i_cg_p95_max", i_p95_max).scalar("i_cg_max", i_max).scalar("i_cg_mean_all_mass_max", i_all_max);
+    let i_all_max = r
+        .inertial
+        .iter()
+        .map(|s| s.mean * s.flowing_fraction)
+        .fold(0.0, f64::max);
+    out.scalar("i_cg_mean_max", i_mean_max)
+        .scalar("i_cg_p95_max", i_p95_max)
+        .scalar("i_cg_max", i_max)
+        .scalar("i_cg_mean_all_mass_max", i_all_max);
     out.claims.push(Claim::at_most(
         "inertial-number-dense",
         &format!("{m}: I in the dense regime, \"the short column attains a maximum inertial number of 0.012\" (fig 4.15) — max over time of the mass-weighted mean of the coarse-grained I over flowing cells (D08; paper bound 0.1, the dense-regime limit the text quotes)"),
@@ -182,10 +199,17 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
     ));
     // --- D18 --------------------------------------------------------------------------
     let mc = mohr_coulomb_angle_deg(r.phi_deg);
-    out.scalar("failure_angle_mohr_coulomb_deg", mc).scalar("friction_angle_shear_deg", r.phi_deg);
-    match r.at_tau.and_then(|c| failure_line(c, r.l0, FAILURE_BIN_D * r.d, FAILURE_V_FRAC).map(|f| (c.t, f))) {
+    out.scalar("failure_angle_mohr_coulomb_deg", mc)
+        .scalar("friction_angle_shear_deg", r.phi_deg);
+    match r
+        .at_tau
+        .and_then(|c| failure_line(c, r.l0, FAILURE_BIN_D * r.d, FAILURE_V_FRAC).map(|f| (c.t, f)))
+    {
         Some((t, f)) => {
-            out.scalar("failure_angle_deg", f.angle_deg).scalar("failure_fit_r2", f.r2).scalar("failure_fit_slices", f.n_slices as f64).scalar("failure_time_over_tau_c", t / tau);
+            out.scalar("failure_angle_deg", f.angle_deg)
+                .scalar("failure_fit_r2", f.r2)
+                .scalar("failure_fit_slices", f.n_slices as f64)
+                .scalar("failure_time_over_tau_c", t / tau);
             out.note(format!(
                 "{m} failure surface at t = {:.2} τ_c (D18: moving = |v| > 0.1 max|v|, slices of d̄, fit over 0.1–0.9 of its height): {:.1}° (R² {:.2}, {} slices), 45° + φ/2 = {:.1}° with φ = {:.2}° from the shear test.",
                 t / tau, f.angle_deg, f.r2, f.n_slices, mc, r.phi_deg
@@ -257,10 +281,24 @@ fn snap_of(inp: &InputRef, k: Option<f64>) -> anyhow::Result<Snap> {
         Some(v) => v,
         None => kk.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
     };
-    let (t, x, y, h) = (col_f64(&df, "t_over_tau_c")?, col_f64(&df, "x_m")?, col_f64(&df, "y_m")?, col_f64(&df, "half_m")?);
+    let (t, x, y, h) = (
+        col_f64(&df, "t_over_tau_c")?,
+        col_f64(&df, "x_m")?,
+        col_f64(&df, "y_m")?,
+        col_f64(&df, "half_m")?,
+    );
     let idx: Vec<usize> = (0..kk.len()).filter(|&i| kk[i] == want).collect();
-    anyhow::ensure!(!idx.is_empty(), "input `{}`: its `snapshots` table has no instant k = {want}", inp.id);
-    Ok(Snap { t: t[idx[0]], x: idx.iter().map(|&i| x[i]).collect(), y: idx.iter().map(|&i| y[i]).collect(), half: idx.iter().map(|&i| h[i]).collect() })
+    anyhow::ensure!(
+        !idx.is_empty(),
+        "input `{}`: its `snapshots` table has no instant k = {want}",
+        inp.id
+    );
+    Ok(Snap {
+        t: t[idx[0]],
+        x: idx.iter().map(|&i| x[i]).collect(),
+        y: idx.iter().map(|&i| y[i]).collect(),
+        half: idx.iter().map(|&i| h[i]).collect(),
+    })
 }
 
 impl Snap {
@@ -273,8 +311,21 @@ impl Snap {
     /// The main mass (D01, edges within `gap` [m]) only.
     fn main(&self, gap: f64) -> Snap {
         let m: Vec<f64> = self.half.iter().map(|h| h * h).collect();
-        let idx = main_mass(&Body { x: &self.x, y: &self.y, half: &self.half, mass: &m }, Link::Contact { gap });
-        Snap { t: self.t, x: idx.iter().map(|&i| self.x[i]).collect(), y: idx.iter().map(|&i| self.y[i]).collect(), half: idx.iter().map(|&i| self.half[i]).collect() }
+        let idx = main_mass(
+            &Body {
+                x: &self.x,
+                y: &self.y,
+                half: &self.half,
+                mass: &m,
+            },
+            Link::Contact { gap },
+        );
+        Snap {
+            t: self.t,
+            x: idx.iter().map(|&i| self.x[i]).collect(),
+            y: idx.iter().map(|&i| self.y[i]).collect(),
+            half: idx.iter().map(|&i| self.half[i]).collect(),
+        }
     }
 }
 
@@ -296,14 +347,22 @@ pub struct SchemeParams {
 
 impl Default for SchemeParams {
     fn default() -> Self {
-        SchemeParams { link_gap: 0.5, bin: 1.0 }
+        SchemeParams {
+            link_gap: 0.5,
+            bin: 1.0,
+        }
     }
 }
 
 impl Validate for SchemeParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(self.link_gap >= 0.0 && self.link_gap.is_finite(), "link_gap", self.link_gap, "≥ 0 [d̄]");
+        c.check(
+            self.link_gap >= 0.0 && self.link_gap.is_finite(),
+            "link_gap",
+            self.link_gap,
+            "≥ 0 [d̄]",
+        );
         c.positive("bin", self.bin);
         c.issues
     }
@@ -331,7 +390,11 @@ fn run_scheme(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: SchemeParams = decode(ctx)?;
     let inp = ctx.input("run")?;
     let sc = inp.scalars()?;
-    let get = |k: &str| sc.get(k).copied().ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", inp.id));
+    let get = |k: &str| {
+        sc.get(k)
+            .copied()
+            .ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", inp.id))
+    };
     let (l0, h0, lf) = (get("l0_m")?, get("h0_m")?, get("lf_m")?);
     let ep = series(inp, "table", "ep_j")?;
     let g = 9.81;
@@ -357,9 +420,18 @@ fn run_scheme(ctx: &StageCtx) -> anyhow::Result<Output> {
     let d = snap.d_mean();
     let main = snap.main(p.link_gap * d);
     let prof = surface_profile(&main.x, &main.y, &main.half, p.bin * d);
-    let scheme_h = |x: f64| if x <= xt { h0 } else if x <= lf { h0 * (lf - x) / (lf - xt) } else { 0.0 };
+    let scheme_h = |x: f64| {
+        if x <= xt {
+            h0
+        } else if x <= lf {
+            h0 * (lf - x) / (lf - xt)
+        } else {
+            0.0
+        }
+    };
     let inside: Vec<&(f64, f64)> = prof.iter().filter(|q| q.0 <= lf).collect();
-    let rms = (inside.iter().map(|q| (q.1 - scheme_h(q.0)).powi(2)).sum::<f64>() / inside.len().max(1) as f64).sqrt() / h0;
+    let rms =
+        (inside.iter().map(|q| (q.1 - scheme_h(q.0)).powi(2)).sum::<f64>() / inside.len().max(1) as f64).sqrt() / h0;
     // Table: polylines in mm, one shape id per outline.
     let (mut s, mut xs, mut ys) = (Vec::new(), Vec::new(), Vec::new());
     let mut poly = |id: f64, pts: &[(f64, f64)], close: bool| {
@@ -394,14 +466,49 @@ fn run_scheme(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("surface_rms_over_h0", rms)
         .scalar("deposit_t_over_tau_c", snap.t);
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
-    out.checks.push(Claim::at_most("scheme-valid", "the scheme needs x_t = 2L_0 − L_f ≥ 0, i.e. ΔL ≤ 1 (figures.md fig4-12)", 1.0, dl / l0));
+    out.checks.push(Claim::at_most(
+        "scheme-valid",
+        "the scheme needs x_t = 2L_0 − L_f ≥ 0, i.e. ΔL ≤ 1 (figures.md fig4-12)",
+        1.0,
+        dl / l0,
+    ));
     out.checks.push(Claim::at_most("destabilised-mass", "\"the amount of mass destabilised ¼(L_f − L_0)H_0\": shoelace area of the drawn triangle against ¼(L_f − L_0)H_0 (relative)", 1e-9, rel(a_dest, 0.25 * dl * h0)));
-    out.checks.push(Claim::at_most("deposited-equals-destabilised", "volume conservation: deposited triangle area = destabilised (relative)", 1e-9, rel(a_dep, a_dest)));
-    out.checks.push(Claim::at_most("deposit-area", "volume conservation: scheme deposit area = L_0 H_0 (relative)", 1e-9, rel(a_deposit, l0 * h0)));
-    out.checks.push(Claim::at_most("two-thirds-runout", "\"over two thirds of the run-out distance 2(L_f − L_0)/3\": horizontal shift of G (relative)", 1e-9, rel(g1.0 - g0.0, 2.0 * dl / 3.0)));
-    out.checks.push(Claim::at_most("g-drop", "G drops from 5H_0/6 to H_0/6, by 2H_0/3 (relative)", 1e-9, rel(g0.1 - g1.1, 2.0 * h0 / 3.0)));
-    out.checks.push(Claim::at_most("eq-4-8", "δE = ρ g ΔA Δy_G equals eq 4.8's (1/6) g ρ (L_f − L_0) H_0² (relative)", 1e-9, rel(de_scheme, de_eq48)));
-    out.checks.push(Claim::at_most("eq-4-9", "W_μ = μ_e ρ g ΔA Δx_G with μ_e = H_0/(L_f − L_0) equals δE (eqs 4.8–4.9: μ_e (L_f − L_0) = H_0; relative)", 1e-9, rel(w_mu, de_eq48)));
+    out.checks.push(Claim::at_most(
+        "deposited-equals-destabilised",
+        "volume conservation: deposited triangle area = destabilised (relative)",
+        1e-9,
+        rel(a_dep, a_dest),
+    ));
+    out.checks.push(Claim::at_most(
+        "deposit-area",
+        "volume conservation: scheme deposit area = L_0 H_0 (relative)",
+        1e-9,
+        rel(a_deposit, l0 * h0),
+    ));
+    out.checks.push(Claim::at_most(
+        "two-thirds-runout",
+        "\"over two thirds of the run-out distance 2(L_f − L_0)/3\": horizontal shift of G (relative)",
+        1e-9,
+        rel(g1.0 - g0.0, 2.0 * dl / 3.0),
+    ));
+    out.checks.push(Claim::at_most(
+        "g-drop",
+        "G drops from 5H_0/6 to H_0/6, by 2H_0/3 (relative)",
+        1e-9,
+        rel(g0.1 - g1.1, 2.0 * h0 / 3.0),
+    ));
+    out.checks.push(Claim::at_most(
+        "eq-4-8",
+        "δE = ρ g ΔA Δy_G equals eq 4.8's (1/6) g ρ (L_f − L_0) H_0² (relative)",
+        1e-9,
+        rel(de_scheme, de_eq48),
+    ));
+    out.checks.push(Claim::at_most(
+        "eq-4-9",
+        "W_μ = μ_e ρ g ΔA Δx_G with μ_e = H_0/(L_f − L_0) equals δE (eqs 4.8–4.9: μ_e (L_f − L_0) = H_0; relative)",
+        1e-9,
+        rel(w_mu, de_eq48),
+    ));
     out.note(format!(
         "Scheme from {}'s L_f = {:.2} mm (L_0 = {:.2} mm, H_0 = {:.2} mm, ΔL = {:.3}); measured surface: main mass (edges within {} d̄) of the run's last snapshot at t = {:.2} τ_c, bins of {} d̄. The scheme's δE (eq 4.8) is {:.2} × the run's E_p(0) − E_p(end); RMS distance between the scheme's and the measured surface over [0, L_f]: {:.3} H_0.",
         inp.id, lf * 1e3, l0 * 1e3, h0 * 1e3, dl / l0, p.link_gap, snap.t, p.bin, de_eq48 / de_run, rms
@@ -435,7 +542,11 @@ pub struct InertialParams {
 
 impl Default for InertialParams {
     fn default() -> Self {
-        InertialParams { tolerance_short: 0.006, tolerance_tall: 0.02, t_max: 8.0 }
+        InertialParams {
+            tolerance_short: 0.006,
+            tolerance_tall: 0.02,
+            t_max: 8.0,
+        }
     }
 }
 
@@ -450,7 +561,9 @@ impl Validate for InertialParams {
 }
 
 fn max_of(inp: &InputRef, col: &str) -> f64 {
-    series(inp, "table", col).map(|v| v.into_iter().filter(|x| x.is_finite()).fold(0.0, f64::max)).unwrap_or(f64::NAN)
+    series(inp, "table", col)
+        .map(|v| v.into_iter().filter(|x| x.is_finite()).fold(0.0, f64::max))
+        .unwrap_or(f64::NAN)
 }
 
 fn run_inertial(ctx: &StageCtx) -> anyhow::Result<Output> {
@@ -463,30 +576,64 @@ fn run_inertial(ctx: &StageCtx) -> anyhow::Result<Output> {
         let t = series(inp, "table", "i_cg_mean")?;
         let frac = series(inp, "table", "i_cg_flowing_fraction")?;
         let all = t.iter().zip(&frac).map(|(a, b)| a * b).fold(0.0, f64::max);
-        let row = [k as f64, inp.scalar("a")?, inp.scalar("h0_m")?, max_of(inp, "i_cg_mean"), all, max_of(inp, "i_cg_p95"), max_of(inp, "i_point_mean"), max_of(inp, "i_point_mean_deep"), max_of(inp, "i_point_p95")];
+        let row = [
+            k as f64,
+            inp.scalar("a")?,
+            inp.scalar("h0_m")?,
+            max_of(inp, "i_cg_mean"),
+            all,
+            max_of(inp, "i_cg_p95"),
+            max_of(inp, "i_point_mean"),
+            max_of(inp, "i_point_mean_deep"),
+            max_of(inp, "i_point_p95"),
+        ];
         for (c, v) in cols.iter_mut().zip(row) {
             c.push(v);
         }
-        out.scalar(&format!("{role}_i_max"), row[3]).scalar(&format!("{role}_i_whole_mass_max"), row[4]).scalar(&format!("{role}_a", ), row[1]);
+        out.scalar(&format!("{role}_i_max"), row[3])
+            .scalar(&format!("{role}_i_whole_mass_max"), row[4])
+            .scalar(&format!("{role}_a",), row[1]);
     }
-    out.table("table", frame(vec![
-        ("run", cols[0].clone()),
-        ("a", cols[1].clone()),
-        ("h0_m", cols[2].clone()),
-        ("max_i_cg_flowing_mean", cols[3].clone()),
-        ("max_i_cg_whole_mass_mean", cols[4].clone()),
-        ("max_i_cg_p95", cols[5].clone()),
-        ("max_i_point_mean", cols[6].clone()),
-        ("max_i_point_mean_deep", cols[7].clone()),
-        ("max_i_point_p95", cols[8].clone()),
-    ])?);
-    out.table("guides", frame(vec![("t_over_tau_c", vec![0.0, p.t_max]), ("i_dense_low", vec![1e-3, 1e-3]), ("i_dense_high", vec![0.1, 0.1])])?);
+    out.table(
+        "table",
+        frame(vec![
+            ("run", cols[0].clone()),
+            ("a", cols[1].clone()),
+            ("h0_m", cols[2].clone()),
+            ("max_i_cg_flowing_mean", cols[3].clone()),
+            ("max_i_cg_whole_mass_mean", cols[4].clone()),
+            ("max_i_cg_p95", cols[5].clone()),
+            ("max_i_point_mean", cols[6].clone()),
+            ("max_i_point_mean_deep", cols[7].clone()),
+            ("max_i_point_p95", cols[8].clone()),
+        ])?,
+    );
+    out.table(
+        "guides",
+        frame(vec![
+            ("t_over_tau_c", vec![0.0, p.t_max]),
+            ("i_dense_low", vec![1e-3, 1e-3]),
+            ("i_dense_high", vec![0.1, 0.1]),
+        ])?,
+    );
     let (s, t) = (cols[3][0], cols[3][1]);
     out.claims.push(Claim::abs("mui-short-max-i", "fig 4.15: \"the short column attains a maximum inertial number of 0.012\" — MPM μ(I), a = 0.4: max over t of the mass-weighted mean coarse-grained I over flowing cells (D08)", 0.012, s, p.tolerance_short));
-    out.claims.push(Claim::abs("mui-tall-max-i", "fig 4.15: \"for the tall column, the maximum inertial number I ≈ 0.04\" — MPM μ(I), a = 6, same statistic", 0.04, t, p.tolerance_tall));
-    out.claims.push(Claim::at_most("mui-dense-regime", "fig 4.15: MPM μ(I) stays in the dense regime I < 0.1 (both columns, same statistic)", 0.1, s.max(t)));
+    out.claims.push(Claim::abs(
+        "mui-tall-max-i",
+        "fig 4.15: \"for the tall column, the maximum inertial number I ≈ 0.04\" — MPM μ(I), a = 6, same statistic",
+        0.04,
+        t,
+        p.tolerance_tall,
+    ));
+    out.claims.push(Claim::at_most(
+        "mui-dense-regime",
+        "fig 4.15: MPM μ(I) stays in the dense regime I < 0.1 (both columns, same statistic)",
+        0.1,
+        s.max(t),
+    ));
     out.claims.push(Claim::at_least("dem-collisional", "§4.2.4: \"DEM simulations, however, showed a collisional regime that has inertial numbers higher than 0.1\" — DEM a = 6, same statistic", 0.1, cols[3][5]));
-    out.scalar("dem04_over_mui04", cols[3][4] / s).scalar("dem6_over_mui6", cols[3][5] / t);
+    out.scalar("dem04_over_mui04", cols[3][4] / s)
+        .scalar("dem6_over_mui6", cols[3][5] / t);
     // Why the MPM's I came out 0.05–0.6 against the chapter's ≤ 0.012 (the statistics differ).
     let f = |j: usize, k: usize| cols[j][k];
     out.note(format!(
@@ -522,7 +669,11 @@ pub struct PackingParams {
 
 impl Default for PackingParams {
     fn default() -> Self {
-        PackingParams { column: "phi_voronoi".into(), initial_window: 1.0, end_tolerance: 0.01 }
+        PackingParams {
+            column: "phi_voronoi".into(),
+            initial_window: 1.0,
+            end_tolerance: 0.01,
+        }
     }
 }
 
@@ -543,8 +694,18 @@ fn run_packing(ctx: &StageCtx) -> anyhow::Result<Output> {
         let inp = ctx.input(role)?;
         let t = series(inp, "packing", "t_over_tau_c")?;
         let phi = series(inp, "packing", &p.column)?;
-        anyhow::ensure!(phi.len() >= 2, "input `{}`: its packing table has {} rows (need the start and later instants)", inp.id, phi.len());
-        let early = t.iter().zip(&phi).filter(|(a, _)| **a > 0.0 && **a <= p.initial_window + 1e-9).map(|(_, b)| *b).fold(f64::INFINITY, f64::min);
+        anyhow::ensure!(
+            phi.len() >= 2,
+            "input `{}`: its packing table has {} rows (need the start and later instants)",
+            inp.id,
+            phi.len()
+        );
+        let early = t
+            .iter()
+            .zip(&phi)
+            .filter(|(a, _)| **a > 0.0 && **a <= p.initial_window + 1e-9)
+            .map(|(_, b)| *b)
+            .fold(f64::INFINITY, f64::min);
         let (phi0, phi_end) = (phi[0], phi[phi.len() - 1]);
         let min_all = phi.iter().cloned().fold(f64::INFINITY, f64::min);
         ends[k] = phi_end;
@@ -558,7 +719,12 @@ fn run_packing(ctx: &StageCtx) -> anyhow::Result<Output> {
             1e-9, phi0 - early,
         ));
         if *role == "loose" {
-            out.claims.push(Claim::at_least("loose-densifies", "fig 4.17: \"the loose sample densifies as the flow evolves\" — φ_loose(end) − φ_loose(0) (> 0)", 1e-9, phi_end - phi0));
+            out.claims.push(Claim::at_least(
+                "loose-densifies",
+                "fig 4.17: \"the loose sample densifies as the flow evolves\" — φ_loose(end) − φ_loose(0) (> 0)",
+                1e-9,
+                phi_end - phi0,
+            ));
         }
     }
     out.claims.push(Claim::at_most("same-end-packing", &format!("fig 4.17: \"the granular mass attains similar packing density at the end of the flow\" — |φ_dense(end) − φ_loose(end)| < {}", p.end_tolerance), p.end_tolerance, (ends[1] - ends[0]).abs()));
@@ -600,7 +766,14 @@ pub struct PairParams {
 
 impl Default for PairParams {
     fn default() -> Self {
-        PairParams { target_dr: [0.74, 0.22], dr_tolerance: 0.1, t_compare: 6.0, link_gap: 0.5, bin: 1.0, shape_margin: 0.01 }
+        PairParams {
+            target_dr: [0.74, 0.22],
+            dr_tolerance: 0.1,
+            t_compare: 6.0,
+            link_gap: 0.5,
+            bin: 1.0,
+            shape_margin: 0.01,
+        }
     }
 }
 
@@ -633,7 +806,10 @@ fn front_shape(inp: &InputRef, l0: f64, gap_d: f64, bin_d: f64) -> anyhow::Resul
     let snap = snap_of(inp, None)?;
     let d = snap.d_mean();
     let main = snap.main(gap_d * d);
-    let prof: Vec<(f64, f64)> = surface_profile(&main.x, &main.y, &main.half, bin_d * d).into_iter().filter(|q| q.0 >= l0 && q.1 > 0.0).collect();
+    let prof: Vec<(f64, f64)> = surface_profile(&main.x, &main.y, &main.half, bin_d * d)
+        .into_iter()
+        .filter(|q| q.0 >= l0 && q.1 > 0.0)
+        .collect();
     let (x, h): (Vec<f64>, Vec<f64>) = prof.iter().cloned().unzip();
     Ok((poly_r2(&x, &h, 1), poly_r2(&x, &h, 2), x.len()))
 }
@@ -650,8 +826,16 @@ fn run_pair(ctx: &StageCtx) -> anyhow::Result<Output> {
     let phi_max_e = sample_phi(ctx.input("emax")?)?;
     let e = |phi: f64| (1.0 - phi) / phi;
     let (e_min, e_max) = (e(phi_min_e), e(phi_max_e));
-    anyhow::ensure!(e_max > e_min, "reference packings: e_max = {e_max:.4} (input `{}`) is not above e_min = {e_min:.4} (input `{}`): the loosest protocol packed denser", ctx.input("emax")?.id, ctx.input("emin")?.id);
-    out.scalar("e_min", e_min).scalar("e_max", e_max).scalar("phi_ref_dense", phi_min_e).scalar("phi_ref_loose", phi_max_e);
+    anyhow::ensure!(
+        e_max > e_min,
+        "reference packings: e_max = {e_max:.4} (input `{}`) is not above e_min = {e_min:.4} (input `{}`): the loosest protocol packed denser",
+        ctx.input("emax")?.id,
+        ctx.input("emin")?.id
+    );
+    out.scalar("e_min", e_min)
+        .scalar("e_max", e_max)
+        .scalar("phi_ref_dense", phi_min_e)
+        .scalar("phi_ref_loose", phi_max_e);
     let mut dr = [0.0; 2];
     let mut ek_peak = [0.0; 2];
     let mut ed_at = [0.0; 2];
@@ -680,11 +864,17 @@ fn run_pair(ctx: &StageCtx) -> anyhow::Result<Output> {
             .scalar(&format!("{role}_front_r2_linear"), r1)
             .scalar(&format!("{role}_front_r2_quadratic"), r2)
             .scalar(&format!("{role}_front_bins"), n as f64)
-            .scalar(&format!("{role}_t_end_over_tau_c"), t.last().copied().unwrap_or(f64::NAN));
+            .scalar(
+                &format!("{role}_t_end_over_tau_c"),
+                t.last().copied().unwrap_or(f64::NAN),
+            );
         out.checks.push(Claim::abs(&format!("{role}-relative-density"), &format!("{role} sample: D_r = (e_max − e)/(e_max − e_min) against the chapter's {:.0} % (window φ ≥ 2 d̄ inside; e_min/e_max from the P4a reference packings; set by the deposition friction, calibrated)", 100.0 * p.target_dr[k]), p.target_dr[k], dr[k], p.dr_tolerance).calibrated());
     }
     if t_end_short(&out, p.t_compare) {
-        out.note(format!("A run ended before t = {} τ_c: its E_d is read at its last sample.", p.t_compare));
+        out.note(format!(
+            "A run ended before t = {} τ_c: its E_d is read at its last sample.",
+            p.t_compare
+        ));
     }
     out.claims.push(Claim::at_least("r6-dense-longer-runout", "fig 4.19: \"the dense granular column exhibits longer run-out distance\" (r = 6, a = 0.8) — ΔL_dense/ΔL_loose (> 1)", 1.0, runout[0] / runout[1]));
     out.claims.push(Claim::abs("r6-peak-ek", "fig 4.21: \"The peak kinetic energy in the dense condition is ~20 % higher than the loose condition\" — max E_k/E_0, dense over loose (tolerance 0.1)", 1.2, ek_peak[0] / ek_peak[1], 0.1));
@@ -710,7 +900,11 @@ fn run_pair(ctx: &StageCtx) -> anyhow::Result<Output> {
 }
 
 fn t_end_short(out: &Output, t: f64) -> bool {
-    ["dense", "loose"].iter().any(|r| out.scalars.get(&format!("{r}_t_end_over_tau_c")).is_some_and(|v| *v < t - 0.05))
+    ["dense", "loose"].iter().any(|r| {
+        out.scalars
+            .get(&format!("{r}_t_end_over_tau_c"))
+            .is_some_and(|v| *v < t - 0.05)
+    })
 }
 
 /// Kind `column-density-pair`.

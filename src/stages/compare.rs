@@ -100,17 +100,47 @@ impl Validate for CompareParams {
         for (i, q) in self.claims.iter().enumerate() {
             let k = |f: &str| format!("claims[{i}].{f}");
             c.check(q.a != q.b, &k("b"), &q.b, "a role other than `a`");
-            c.check(q.pair_tolerance.is_finite() && (0.0..0.5).contains(&q.pair_tolerance), &k("pair_tolerance"), q.pair_tolerance, "a fraction in [0, 0.5)");
+            c.check(
+                q.pair_tolerance.is_finite() && (0.0..0.5).contains(&q.pair_tolerance),
+                &k("pair_tolerance"),
+                q.pair_tolerance,
+                "a fraction in [0, 0.5)",
+            );
             if let Some([lo, hi]) = q.range {
-                c.check(lo.is_finite() && hi.is_finite() && lo <= hi, &k("range"), format!("[{lo}, {hi}]"), "[lo, hi] with lo ≤ hi");
+                c.check(
+                    lo.is_finite() && hi.is_finite() && lo <= hi,
+                    &k("range"),
+                    format!("[{lo}, {hi}]"),
+                    "[lo, hi] with lo ≤ hi",
+                );
             }
             match q.relation {
                 Relation::Ratio => {
-                    c.check(q.paper.is_some_and(|p| p.is_finite() && p > 0.0), &k("paper"), format!("{:?}", q.paper), "the stated ratio (> 0)");
-                    c.check(q.tolerance.is_some_and(|t| t.is_finite() && t > 0.0), &k("tolerance"), format!("{:?}", q.tolerance), "a stated tolerance on the ratio (> 0)");
+                    c.check(
+                        q.paper.is_some_and(|p| p.is_finite() && p > 0.0),
+                        &k("paper"),
+                        format!("{:?}", q.paper),
+                        "the stated ratio (> 0)",
+                    );
+                    c.check(
+                        q.tolerance.is_some_and(|t| t.is_finite() && t > 0.0),
+                        &k("tolerance"),
+                        format!("{:?}", q.tolerance),
+                        "a stated tolerance on the ratio (> 0)",
+                    );
                 }
-                Relation::Equal => c.check(q.tolerance.is_some_and(|t| t.is_finite() && t > 0.0), &k("tolerance"), format!("{:?}", q.tolerance), "a stated tolerance on the ratio (> 0)"),
-                Relation::Less | Relation::Greater => c.check(q.paper.is_none() && q.tolerance.is_none(), &k("relation"), "less/greater with paper or tolerance", "`less`/`greater` compare with 1: drop paper and tolerance, or use `ratio`"),
+                Relation::Equal => c.check(
+                    q.tolerance.is_some_and(|t| t.is_finite() && t > 0.0),
+                    &k("tolerance"),
+                    format!("{:?}", q.tolerance),
+                    "a stated tolerance on the ratio (> 0)",
+                ),
+                Relation::Less | Relation::Greater => c.check(
+                    q.paper.is_none() && q.tolerance.is_none(),
+                    &k("relation"),
+                    "less/greater with paper or tolerance",
+                    "`less`/`greater` compare with 1: drop paper and tolerance, or use `ratio`",
+                ),
             }
         }
         c.issues
@@ -123,7 +153,10 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let (mut cid, mut xs, mut ya, mut yb) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (ci, q) in p.claims.iter().enumerate() {
         let side = |role: &str| -> anyhow::Result<Vec<(f64, f64)>> {
-            ctx.inputs_of(role).iter().map(|i| Ok((i.scalar(&q.pair_on)?, i.scalar(&q.y)?))).collect()
+            ctx.inputs_of(role)
+                .iter()
+                .map(|i| Ok((i.scalar(&q.pair_on)?, i.scalar(&q.y)?)))
+                .collect()
         };
         let (sa, sb) = (side(&q.a)?, side(&q.b)?);
         let mut ratios = Vec::new();
@@ -132,7 +165,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 continue;
             }
             let nearest = sb.iter().min_by(|p, q| (p.0 - x).abs().total_cmp(&(q.0 - x).abs()));
-            if let Some(&(_, vb)) = nearest.filter(|(xb, _)| (xb - x).abs() <= q.pair_tolerance * xb.abs().max(x.abs()) + 1e-12) {
+            if let Some(&(_, vb)) =
+                nearest.filter(|(xb, _)| (xb - x).abs() <= q.pair_tolerance * xb.abs().max(x.abs()) + 1e-12)
+            {
                 ratios.push(va / vb);
                 cid.push(ci as f64);
                 xs.push(x);
@@ -140,18 +175,48 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 yb.push(vb);
             }
         }
-        anyhow::ensure!(!ratios.is_empty(), "comparison `{}`: no member of `{}` pairs with one of `{}` on `{}` in the range", q.id, q.a, q.b, q.pair_on);
+        anyhow::ensure!(
+            !ratios.is_empty(),
+            "comparison `{}`: no member of `{}` pairs with one of `{}` on `{}` in the range",
+            q.id,
+            q.a,
+            q.b,
+            q.pair_on
+        );
         let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
-        out.scalar(&format!("{}_ratio", q.id), mean).scalar(&format!("{}_pairs", q.id), ratios.len() as f64);
-        let st = format!("{} [mean {}/{} of `{}` over {} pair(s)]", q.statement, q.a, q.b, q.y, ratios.len());
+        out.scalar(&format!("{}_ratio", q.id), mean)
+            .scalar(&format!("{}_pairs", q.id), ratios.len() as f64);
+        let st = format!(
+            "{} [mean {}/{} of `{}` over {} pair(s)]",
+            q.statement,
+            q.a,
+            q.b,
+            q.y,
+            ratios.len()
+        );
         out.claims.push(match q.relation {
             Relation::Less => Claim::at_most(&q.id, &st, 1.0, mean),
             Relation::Greater => Claim::at_least(&q.id, &st, 1.0, mean),
             Relation::Equal => Claim::abs(&q.id, &st, 1.0, mean, q.tolerance.unwrap_or(0.0)),
-            Relation::Ratio => Claim::abs(&q.id, &st, q.paper.unwrap_or(f64::NAN), mean, q.tolerance.unwrap_or(0.0)),
+            Relation::Ratio => Claim::abs(
+                &q.id,
+                &st,
+                q.paper.unwrap_or(f64::NAN),
+                mean,
+                q.tolerance.unwrap_or(0.0),
+            ),
         });
     }
-    out.table("table", frame(vec![("comparison", cid), ("x", xs), ("y_a", ya.clone()), ("y_b", yb.clone()), ("ratio", ya.iter().zip(&yb).map(|(a, b)| a / b).collect())])?);
+    out.table(
+        "table",
+        frame(vec![
+            ("comparison", cid),
+            ("x", xs),
+            ("y_a", ya.clone()),
+            ("y_b", yb.clone()),
+            ("ratio", ya.iter().zip(&yb).map(|(a, b)| a / b).collect()),
+        ])?,
+    );
     Ok(out)
 }
 

@@ -9,8 +9,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use super::wp_summary::ensemble_error;
+use super::{Kind, Validate, decode, typed};
 use crate::dem::column::{CollapseParams, CollapseResult, Variant, collapse, work_precision};
 use crate::dem::compress::{CompressionParams, compression_test};
 use crate::dem::prep::{Column, DepositionParams, SettleReport, deposited_column, hex_column};
@@ -25,7 +25,11 @@ use crate::validate::{Checker, Issue};
 /// Size classes the validation-time pre-flight assumes: PSD-COL (0.92–1.38 mm). The
 /// smallest grains bind, so larger PSDs are covered; each run repeats the audit with its
 /// actual grains.
-pub const PREFLIGHT_SIZES: crate::dem::SizeClasses = crate::dem::SizeClasses { r_min: 0.46e-3, r_mean: 0.575e-3, r_max: 0.69e-3 };
+pub const PREFLIGHT_SIZES: crate::dem::SizeClasses = crate::dem::SizeClasses {
+    r_min: 0.46e-3,
+    r_mean: 0.575e-3,
+    r_max: 0.69e-3,
+};
 
 pub(crate) fn check_dem(p: &DemParams, factor: f64, c: &mut Checker) {
     for i in p.validate() {
@@ -38,13 +42,21 @@ pub(crate) fn check_dem(p: &DemParams, factor: f64, c: &mut Checker) {
     // Pre-flight before anything runs: an unstable step is bad input (exit 2).
     let run = p.softened(factor);
     if let Err(e) = crate::dem::preflight(&run, PREFLIGHT_SIZES, true, run.dt) {
-        c.fail("dem.dt", format!("{:.3e} s (with stiffness_factor {factor})", run.dt), &format!("a stable step — {e}. `granrepro run --explain` prints every time scale"));
+        c.fail(
+            "dem.dt",
+            format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
+            &format!("a stable step — {e}. `granrepro run --explain` prints every time scale"),
+        );
     }
 }
 
 /// `--explain`: the pre-flight table of a DEM stage's parameters.
 fn explain_dem(v: &serde_json::Value) -> String {
-    let dem: DemParams = v.get("dem").cloned().and_then(|d| serde_json::from_value(d).ok()).unwrap_or_default();
+    let dem: DemParams = v
+        .get("dem")
+        .cloned()
+        .and_then(|d| serde_json::from_value(d).ok())
+        .unwrap_or_default();
     let f = v.get("stiffness_factor").and_then(|x| x.as_f64()).unwrap_or(1.0);
     let run = dem.softened(f);
     let rows = crate::dem::time_scales(&run, PREFLIGHT_SIZES, true, run.dt);
@@ -88,7 +100,16 @@ pub struct PrepParams {
 
 impl Default for PrepParams {
     fn default() -> Self {
-        PrepParams { dem: DemParams::default(), stiffness_factor: 1.0, a: 0.8, area_m2: 3.9e-3, packing: Packing::Ballistic, deposition: DepositionParams::default(), hex_diameter_m: 1.15e-3, target_packing_fraction: None }
+        PrepParams {
+            dem: DemParams::default(),
+            stiffness_factor: 1.0,
+            a: 0.8,
+            area_m2: 3.9e-3,
+            packing: Packing::Ballistic,
+            deposition: DepositionParams::default(),
+            hex_diameter_m: 1.15e-3,
+            target_packing_fraction: None,
+        }
     }
 }
 
@@ -114,7 +135,12 @@ fn grains_table(s: &State) -> anyhow::Result<polars::prelude::DataFrame> {
 /// Contact-history table of a settled sample: `wall` = −1 for a grain pair (a, b),
 /// else the wall index with grain a.
 fn histories_table(h: &SavedHistories) -> anyhow::Result<polars::prelude::DataFrame> {
-    let rows: Vec<(f64, u32, u32, ContactState)> = h.pairs.iter().map(|&(a, b, c)| (-1.0, a, b, c)).chain(h.walls.iter().map(|&(w, a, c)| (w as f64, a, 0, c))).collect();
+    let rows: Vec<(f64, u32, u32, ContactState)> = h
+        .pairs
+        .iter()
+        .map(|&(a, b, c)| (-1.0, a, b, c))
+        .chain(h.walls.iter().map(|&(w, a, c)| (w as f64, a, 0, c)))
+        .collect();
     frame(vec![
         ("wall", rows.iter().map(|r| r.0).collect()),
         ("a", rows.iter().map(|r| r.1 as f64).collect()),
@@ -130,10 +156,20 @@ fn histories_table(h: &SavedHistories) -> anyhow::Result<polars::prelude::DataFr
 fn histories_from(input: &InputRef) -> anyhow::Result<SavedHistories> {
     let df = input.table("contacts")?;
     let (w, a, b) = (col_f64(&df, "wall")?, col_f64(&df, "a")?, col_f64(&df, "b")?);
-    let (t, r, ft, mr) = (col_f64(&df, "tangential_m")?, col_f64(&df, "rolling_rad")?, col_f64(&df, "ft_n")?, col_f64(&df, "mr_nm")?);
+    let (t, r, ft, mr) = (
+        col_f64(&df, "tangential_m")?,
+        col_f64(&df, "rolling_rad")?,
+        col_f64(&df, "ft_n")?,
+        col_f64(&df, "mr_nm")?,
+    );
     let mut h = SavedHistories::default();
     for k in 0..w.len() {
-        let c = ContactState { tangential: t[k], rolling: r[k], ft: ft[k], mr: mr[k] };
+        let c = ContactState {
+            tangential: t[k],
+            rolling: r[k],
+            ft: ft[k],
+            mr: mr[k],
+        };
         if w[k] < 0.0 {
             h.pairs.push((a[k] as u32, b[k] as u32, c));
         } else {
@@ -152,14 +188,22 @@ pub(crate) fn column_from(input: &InputRef, density: f64) -> anyhow::Result<Colu
         s.insert(x[i], y[i], r[i], density);
     }
     let sc = input.scalars()?;
-    let get = |k: &str| sc.get(k).copied().ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", input.id));
+    let get = |k: &str| {
+        sc.get(k)
+            .copied()
+            .ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", input.id))
+    };
     Ok(Column {
         state: s,
         l0: get("l0_m")?,
         h0: get("h0_m")?,
         packing_fraction: get("packing_fraction")?,
         packing_fraction_core: sc.get("packing_fraction_core").copied().unwrap_or(f64::NAN),
-        settle: SettleReport { time: get("settle_time_s")?, ke_over_ep: get("settle_ke_over_ep")?, converged: true },
+        settle: SettleReport {
+            time: get("settle_time_s")?,
+            ke_over_ep: get("settle_ke_over_ep")?,
+            converged: true,
+        },
         histories: histories_from(input)?,
     })
 }
@@ -189,24 +233,67 @@ pub(crate) fn contacts_at_rest(s: &State) -> Vec<(usize, usize, f64)> {
     out
 }
 
-fn column_snapshot(title: String, foot: String, s: &State, l0: f64, h0: f64, colour_by_size: bool, gate: bool) -> String {
+fn column_snapshot(
+    title: String,
+    foot: String,
+    s: &State,
+    l0: f64,
+    h0: f64,
+    colour_by_size: bool,
+    gate: bool,
+) -> String {
     column_snapshot_with(title, foot, s, l0, h0, colour_by_size, gate, &[])
 }
 
 #[allow(clippy::too_many_arguments)]
-fn column_snapshot_with(title: String, foot: String, s: &State, l0: f64, h0: f64, colour_by_size: bool, gate: bool, network: &[(usize, usize, f64)]) -> String {
+fn column_snapshot_with(
+    title: String,
+    foot: String,
+    s: &State,
+    l0: f64,
+    h0: f64,
+    colour_by_size: bool,
+    gate: bool,
+    network: &[(usize, usize, f64)],
+) -> String {
     let d: Vec<f64> = s.r.iter().map(|r| 2e3 * r).collect();
-    let (dmin, dmax) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let (dmin, dmax) = d
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     let mut segs = vec![
-        Segment { a: (0.0, 0.0), b: (0.0, 1.1 * h0), color: "black", width: 2.5, dashed: false },
-        Segment { a: (0.0, 0.0), b: (1.15 * l0, 0.0), color: "black", width: 2.5, dashed: false },
+        Segment {
+            a: (0.0, 0.0),
+            b: (0.0, 1.1 * h0),
+            color: "black",
+            width: 2.5,
+            dashed: false,
+        },
+        Segment {
+            a: (0.0, 0.0),
+            b: (1.15 * l0, 0.0),
+            color: "black",
+            width: 2.5,
+            dashed: false,
+        },
     ];
     if gate {
-        segs.push(Segment { a: (l0, 0.0), b: (l0, 1.1 * h0), color: "#555", width: 2.0, dashed: true });
+        segs.push(Segment {
+            a: (l0, 0.0),
+            b: (l0, 1.1 * h0),
+            color: "#555",
+            width: 2.0,
+            dashed: true,
+        });
     }
     let fmax = network.iter().map(|c| c.2).fold(0.0, f64::max);
     for &(i, j, f) in network {
-        segs.push(Segment { a: (s.x[i], s.y[i]), b: (s.x[j], s.y[j]), color: "#b2182b", width: 0.2 + 2.8 * f / fmax.max(1e-300), dashed: false });
+        segs.push(Segment {
+            a: (s.x[i], s.y[i]),
+            b: (s.x[j], s.y[j]),
+            color: "#b2182b",
+            width: 0.2 + 2.8 * f / fmax.max(1e-300),
+            dashed: false,
+        });
     }
     Snapshot {
         title,
@@ -215,7 +302,11 @@ fn column_snapshot_with(title: String, foot: String, s: &State, l0: f64, h0: f64
         y: &s.y,
         half: &s.r,
         shape: Shape::Disk,
-        field: colour_by_size.then(|| Field { values: &d, label: "grain diameter [mm]".into(), range: (dmin, dmax.max(dmin + 1e-9)) }),
+        field: colour_by_size.then(|| Field {
+            values: &d,
+            label: "grain diameter [mm]".into(),
+            range: (dmin, dmax.max(dmin + 1e-9)),
+        }),
         black: None,
         fill: (!network.is_empty()).then_some("#c8c8c8"),
         segments: segs,
@@ -242,7 +333,9 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
             anyhow::ensure!(
                 radii.len() >= k,
                 "the PSD input `{}` has {} grains; a {:.4} m² column needs about {k} before trimming: raise its `n`",
-                psd.id, radii.len(), p.area_m2
+                psd.id,
+                radii.len(),
+                p.area_m2
             );
             radii.truncate(k);
             deposited_column(&radii, l0, h0, &run, &p.deposition)?
@@ -262,18 +355,44 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("settle_ke_over_ep", col.settle.ke_over_ep)
         .scalar("stiffness_factor", p.stiffness_factor)
         .scalar("seed", p.deposition.seed as f64);
-    out.checks.push(Claim::at_most("at-rest", "stable state before release: E_k/E_p < 1e-6 (figures.md fig4-02)", 1e-6, col.settle.ke_over_ep));
+    out.checks.push(Claim::at_most(
+        "at-rest",
+        "stable state before release: E_k/E_p < 1e-6 (figures.md fig4-02)",
+        1e-6,
+        col.settle.ke_over_ep,
+    ));
     if let Some(t) = p.target_packing_fraction {
-        out.claims.push(Claim::abs("packing-fraction", "loose 79 % / dense 83 % packing (chapter §4.2.3), core packing fraction", t, col.packing_fraction_core, 0.015));
+        out.claims.push(Claim::abs(
+            "packing-fraction",
+            "loose 79 % / dense 83 % packing (chapter §4.2.3), core packing fraction",
+            t,
+            col.packing_fraction_core,
+            0.015,
+        ));
     }
     out.note(format!(
         "{:?} packing, {} grains, L_0 = {:.2} mm, H_0 = {:.2} mm (a = {:.3}), φ = {:.3}; k_n = {:.3e} N/m (stiffness factor {}), Δt = {:.3e} s; settled to E_k/E_p = {:.1e}.",
         p.packing, col.state.len(), col.l0 * 1e3, col.h0 * 1e3, col.h0 / col.l0, col.packing_fraction, run.grain.kn, p.stiffness_factor, run.dt, col.settle.ke_over_ep
     ));
     let svg = column_snapshot(
-        ctx.caption.clone().unwrap_or_else(|| format!("DEM column a = {:.2}", p.a)),
-        footer(&ctx.profile, &format!("N = {}, φ = {:.3}, L_0 = {:.1} mm, H_0 = {:.1} mm", col.state.len(), col.packing_fraction, col.l0 * 1e3, col.h0 * 1e3)),
-        &col.state, col.l0, col.h0, p.packing == Packing::Ballistic, true,
+        ctx.caption
+            .clone()
+            .unwrap_or_else(|| format!("DEM column a = {:.2}", p.a)),
+        footer(
+            &ctx.profile,
+            &format!(
+                "N = {}, φ = {:.3}, L_0 = {:.1} mm, H_0 = {:.1} mm",
+                col.state.len(),
+                col.packing_fraction,
+                col.l0 * 1e3,
+                col.h0 * 1e3
+            ),
+        ),
+        &col.state,
+        col.l0,
+        col.h0,
+        p.packing == Packing::Ballistic,
+        true,
     );
     out.figure("figure", svg);
     Ok(out)
@@ -304,7 +423,11 @@ pub struct SnapshotParams {
 
 impl Default for SnapshotParams {
     fn default() -> Self {
-        SnapshotParams { colour_by_size: false, gate: true, force_network: false }
+        SnapshotParams {
+            colour_by_size: false,
+            gate: true,
+            force_network: false,
+        }
     }
 }
 
@@ -319,15 +442,43 @@ fn run_snapshot(ctx: &StageCtx) -> anyhow::Result<Output> {
     let input = ctx.input("column")?;
     let col = column_from(input, 2500.0)?;
     let mut out = Output::default();
-    out.scalar("n", col.state.len() as f64).scalar("packing_fraction", col.packing_fraction).scalar("l0_m", col.l0).scalar("h0_m", col.h0).scalar("a", col.h0 / col.l0);
-    let network = if p.force_network { contacts_at_rest(&col.state) } else { Vec::new() };
-    let mut foot = format!("N = {}, φ = {:.3}, L_0 = {:.1} mm, H_0 = {:.1} mm, at rest (E_k/E_p = {:.1e})", col.state.len(), col.packing_fraction, col.l0 * 1e3, col.h0 * 1e3, col.settle.ke_over_ep);
+    out.scalar("n", col.state.len() as f64)
+        .scalar("packing_fraction", col.packing_fraction)
+        .scalar("l0_m", col.l0)
+        .scalar("h0_m", col.h0)
+        .scalar("a", col.h0 / col.l0);
+    let network = if p.force_network {
+        contacts_at_rest(&col.state)
+    } else {
+        Vec::new()
+    };
+    let mut foot = format!(
+        "N = {}, φ = {:.3}, L_0 = {:.1} mm, H_0 = {:.1} mm, at rest (E_k/E_p = {:.1e})",
+        col.state.len(),
+        col.packing_fraction,
+        col.l0 * 1e3,
+        col.h0 * 1e3,
+        col.settle.ke_over_ep
+    );
     if p.force_network {
         let z = 2.0 * network.len() as f64 / col.state.len() as f64;
-        out.scalar("grain_contacts", network.len() as f64).scalar("coordination_number", z);
-        foot.push_str(&format!("; {} grain contacts (z = {z:.2}), line width ∝ F_n", network.len()));
+        out.scalar("grain_contacts", network.len() as f64)
+            .scalar("coordination_number", z);
+        foot.push_str(&format!(
+            "; {} grain contacts (z = {z:.2}), line width ∝ F_n",
+            network.len()
+        ));
     }
-    let svg = column_snapshot_with(ctx.caption.clone().unwrap_or_else(|| "DEM column".into()), footer(&ctx.profile, &foot), &col.state, col.l0, col.h0, p.colour_by_size, p.gate, &network);
+    let svg = column_snapshot_with(
+        ctx.caption.clone().unwrap_or_else(|| "DEM column".into()),
+        footer(&ctx.profile, &foot),
+        &col.state,
+        col.l0,
+        col.h0,
+        p.colour_by_size,
+        p.gate,
+        &network,
+    );
     out.figure("figure", svg);
     out.table("table", grains_table(&col.state)?);
     Ok(out)
@@ -359,7 +510,12 @@ pub struct CollapseStageParams {
 
 impl Default for CollapseStageParams {
     fn default() -> Self {
-        CollapseStageParams { dem: DemParams::default(), stiffness_factor: 1.0, run: CollapseParams::default(), vtk: false }
+        CollapseStageParams {
+            dem: DemParams::default(),
+            stiffness_factor: 1.0,
+            run: CollapseParams::default(),
+            vtk: false,
+        }
     }
 }
 
@@ -367,7 +523,12 @@ impl Validate for CollapseStageParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
         check_dem(&self.dem, self.stiffness_factor, &mut c);
-        c.check(self.run.t_max > self.run.t_min, "run.t_max", self.run.t_max, "> run.t_min");
+        c.check(
+            self.run.t_max > self.run.t_min,
+            "run.t_max",
+            self.run.t_max,
+            "> run.t_min",
+        );
         c.positive("run.sample_every", self.run.sample_every);
         if let Some(rule) = self.run.stop {
             for (k, v, a) in rule.issues() {
@@ -375,7 +536,12 @@ impl Validate for CollapseStageParams {
             }
         }
         c.check(self.run.link_gap >= 0.0, "run.link_gap", self.run.link_gap, "≥ 0 [d̄]");
-        c.check(self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()), "run.link_gap_sensitivity", format!("{:?}", self.run.link_gap_sensitivity), "gaps ≥ 0 [d̄]");
+        c.check(
+            self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()),
+            "run.link_gap_sensitivity",
+            format!("{:?}", self.run.link_gap_sensitivity),
+            "gaps ≥ 0 [d̄]",
+        );
         c.positive("run.inertial_cell", self.run.inertial_cell);
         c.issues
     }
@@ -403,12 +569,18 @@ fn collapse_table(r: &CollapseResult) -> anyhow::Result<polars::prelude::DataFra
         ("balance_residual_j", s.iter().map(|v| v.residual).collect()),
         ("ep_over_e0", s.iter().map(|v| v.ep / e0).collect()),
         ("ek_over_e0", s.iter().map(|v| (v.ekx + v.eky) / e0).collect()),
-        ("ed_over_e0", s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).collect()),
+        (
+            "ed_over_e0",
+            s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).collect(),
+        ),
         ("i_cg_mean", s.iter().map(|v| v.inertial.mean).collect()),
         ("i_cg_median", s.iter().map(|v| v.inertial.median).collect()),
         ("i_cg_p95", s.iter().map(|v| v.inertial.p95).collect()),
         ("i_cg_max", s.iter().map(|v| v.inertial.max).collect()),
-        ("i_cg_flowing_fraction", s.iter().map(|v| v.inertial.flowing_fraction).collect()),
+        (
+            "i_cg_flowing_fraction",
+            s.iter().map(|v| v.inertial.flowing_fraction).collect(),
+        ),
     ])
 }
 
@@ -453,11 +625,18 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     // D10: t_f = when the front settles to within 0.5 d̄ of its final position (d̄ the
     // volume-mean diameter, as figures.md defines it).
     let d_mean = col.state.volume_mean_diameter();
-    let t_f = crate::analysis::front::stop_time(&s.iter().map(|v| v.t).collect::<Vec<_>>(), &s.iter().map(|v| v.length).collect::<Vec<_>>(), 0.5 * d_mean);
-    let kmax = s.iter().copied().fold(None::<crate::dem::column::Sample>, |a, v| match a {
-        Some(x) if x.ekx + x.eky >= v.ekx + v.eky => Some(x),
-        _ => Some(v),
-    });
+    let t_f = crate::analysis::front::stop_time(
+        &s.iter().map(|v| v.t).collect::<Vec<_>>(),
+        &s.iter().map(|v| v.length).collect::<Vec<_>>(),
+        0.5 * d_mean,
+    );
+    let kmax = s
+        .iter()
+        .copied()
+        .fold(None::<crate::dem::column::Sample>, |a, v| match a {
+            Some(x) if x.ekx + x.eky >= v.ekx + v.eky => Some(x),
+            _ => Some(v),
+        });
     let a = r.h0 / r.l0;
     let dl = r.delta_l();
     let max_res = s.iter().map(|v| v.residual.abs()).fold(0.0, f64::max);
@@ -472,24 +651,49 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("t_end_over_tau_c", last.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN))
         .scalar("t_f_over_tau_c", t_f / r.tau_c)
         .scalar("t_kemax_over_tau_c", kmax.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN))
-        .scalar("ed_over_e0_end", last.map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).unwrap_or(f64::NAN))
-        .scalar("w_frictional_over_e0_end", last.map(|v| v.ledger.frictional() / e0).unwrap_or(f64::NAN))
-        .scalar("w_collisional_over_e0_end", last.map(|v| v.ledger.collisional() / e0).unwrap_or(f64::NAN))
+        .scalar(
+            "ed_over_e0_end",
+            last.map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).unwrap_or(f64::NAN),
+        )
+        .scalar(
+            "w_frictional_over_e0_end",
+            last.map(|v| v.ledger.frictional() / e0).unwrap_or(f64::NAN),
+        )
+        .scalar(
+            "w_collisional_over_e0_end",
+            last.map(|v| v.ledger.collisional() / e0).unwrap_or(f64::NAN),
+        )
         .scalar("erot_over_e0_end", last.map(|v| v.erot / e0).unwrap_or(f64::NAN))
         .scalar("elastic_over_e0_end", last.map(|v| v.elastic / e0).unwrap_or(f64::NAN))
         .scalar("max_balance_residual_over_e0", max_res / e0)
         .scalar("max_overlap_fraction", r.max_overlap_fraction)
         .scalar("dt_s", r.dt)
         .scalar("steps", r.steps as f64)
-        .scalar("at_rest", if matches!(r.stop, crate::dem::column::StopReason::AtRest) { 1.0 } else { 0.0 });
+        .scalar(
+            "at_rest",
+            if matches!(r.stop, crate::dem::column::StopReason::AtRest) {
+                1.0
+            } else {
+                0.0
+            },
+        );
     // One run of a chaotic flow is not a claim: eq 4.6 is checked on ensemble means (with
     // their spread) by calib-dem; this stage shows the flow evolution of member 0.
-    out.scalar("mu_r", p.dem.rolling.mu_r).scalar("runout_eq46", super::calib::eq46(a));
+    out.scalar("mu_r", p.dem.rolling.mu_r)
+        .scalar("runout_eq46", super::calib::eq46(a));
     out.note(format!("Single run: ΔL = {dl:.3} against eq 4.6's {:.3}; the run-out is chaotic (±0.05 from a 1e-9 m perturbation), so the claim is made on ensemble means by calib-dem.", super::calib::eq46(a)));
     if calibrated {
-        out.note(format!("Rolling friction μ_r = {} ({:?} model) from the joint calibration (calibrated).", p.dem.rolling.mu_r, p.dem.rolling.model));
+        out.note(format!(
+            "Rolling friction μ_r = {} ({:?} model) from the joint calibration (calibrated).",
+            p.dem.rolling.mu_r, p.dem.rolling.model
+        ));
     }
-    out.checks.push(Claim::at_most("energy-balance", "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (figures.md D07: within 1 %)", 0.01, max_res / e0));
+    out.checks.push(Claim::at_most(
+        "energy-balance",
+        "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (figures.md D07: within 1 %)",
+        0.01,
+        max_res / e0,
+    ));
     // Per-run analysis shared with the MPM (stages::column_analysis).
     {
         use crate::dem::column::cloud;
@@ -497,7 +701,12 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
             Some(c) => c.scalar("friction_angle_deg")?,
             None => f64::NAN,
         };
-        let at_tau = r.snapshots.iter().min_by(|a, b| (a.t - r.tau_c).abs().total_cmp(&(b.t - r.tau_c).abs())).filter(|s| (s.t / r.tau_c - 1.0).abs() < 0.05).map(|s| cloud(&s.state, s.t));
+        let at_tau = r
+            .snapshots
+            .iter()
+            .min_by(|a, b| (a.t - r.tau_c).abs().total_cmp(&(b.t - r.tau_c).abs()))
+            .filter(|s| (s.t / r.tau_c - 1.0).abs() < 0.05)
+            .map(|s| cloud(&s.state, s.t));
         let fin = &r.snapshots[r.snapshots.len() - 1].state;
         let tt: Vec<f64> = s.iter().map(|v| v.t).collect();
         let ll: Vec<f64> = s.iter().map(|v| v.length).collect();
@@ -505,12 +714,33 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         let ek: Vec<f64> = s.iter().map(|v| v.ekx + v.eky).collect();
         let ep: Vec<f64> = s.iter().map(|v| v.ep).collect();
         let ist: Vec<_> = s.iter().map(|v| v.inertial).collect();
-        super::column_analysis::analyse(&mut out, &super::column_analysis::Run {
-            method: "DEM", l0: r.l0, h0: r.h0, tau: r.tau_c, d: d_mean, t: &tt, l: &ll, h: &hh, ek: &ek, ep: &ep, inertial: &ist,
-            gaps: &p.run.link_gap_sensitivity, gap_lengths: &r.gap_lengths, link_gap: p.run.link_gap, at_tau: at_tau.as_ref(),
-            x_start: &col.state.x, x_end: &fin.x, mass: &col.state.m, phi_deg: phi, mu_grain: p.dem.grain.friction,
-            at_rest: matches!(r.stop, crate::dem::column::StopReason::AtRest), g: p.dem.gravity,
-        })?;
+        super::column_analysis::analyse(
+            &mut out,
+            &super::column_analysis::Run {
+                method: "DEM",
+                l0: r.l0,
+                h0: r.h0,
+                tau: r.tau_c,
+                d: d_mean,
+                t: &tt,
+                l: &ll,
+                h: &hh,
+                ek: &ek,
+                ep: &ep,
+                inertial: &ist,
+                gaps: &p.run.link_gap_sensitivity,
+                gap_lengths: &r.gap_lengths,
+                link_gap: p.run.link_gap,
+                at_tau: at_tau.as_ref(),
+                x_start: &col.state.x,
+                x_end: &fin.x,
+                mass: &col.state.m,
+                phi_deg: phi,
+                mu_grain: p.dem.grain.friction,
+                at_rest: matches!(r.stop, crate::dem::column::StopReason::AtRest),
+                g: p.dem.gravity,
+            },
+        )?;
         if s.len() > 1 {
             out.claims.push(Claim::abs(
                 "motion-persists-6tau",
@@ -520,28 +750,59 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
         let (pk, phi0, phi1) = packing_table(&col, &r)?;
         out.table("packing", pk);
-        out.scalar("phi_voronoi_initial", phi0).scalar("phi_voronoi_final", phi1);
+        out.scalar("phi_voronoi_initial", phi0)
+            .scalar("phi_voronoi_final", phi1);
         let rule = p.run.rule();
         out.note(format!(
             "Stop rule (shared with the MPM): after {} τ_c, E_k + E_rot < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: grains linked when their edges are within {} d̄ (D01; sensitivity table `link_gap_sensitivity`).",
             rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max, p.run.link_gap
         ));
     }
-    out.note(format!("{} grains, Δt = {:.3e} s, {} steps, stop: {:?}, wall {:.1} s; max overlap {:.3} % of d.", col.state.len(), r.dt, r.steps, r.stop, r.wall_s, 100.0 * r.max_overlap_fraction));
+    out.note(format!(
+        "{} grains, Δt = {:.3e} s, {} steps, stop: {:?}, wall {:.1} s; max overlap {:.3} % of d.",
+        col.state.len(),
+        r.dt,
+        r.steps,
+        r.stop,
+        r.wall_s,
+        100.0 * r.max_overlap_fraction
+    ));
     if p.vtk {
         for (i, snap) in r.snapshots.iter().enumerate() {
-            out.files.push((format!("snapshot-{i:02}-t{:.3}tau.vtp", snap.t / r.tau_c), snap.to_vtp().into_bytes()));
+            out.files.push((
+                format!("snapshot-{i:02}-t{:.3}tau.vtp", snap.t / r.tau_c),
+                snap.to_vtp().into_bytes(),
+            ));
         }
     }
     let t: Vec<f64> = s.iter().map(|v| v.t / r.tau_c).collect();
     let chart = Chart {
-        title: ctx.caption.clone().unwrap_or_else(|| format!("DEM column collapse, a = {a:.2}")),
-        footer: footer(&ctx.profile, &format!("ΔL = {dl:.3}, stiffness factor {}", p.stiffness_factor)),
+        title: ctx
+            .caption
+            .clone()
+            .unwrap_or_else(|| format!("DEM column collapse, a = {a:.2}")),
+        footer: footer(
+            &ctx.profile,
+            &format!("ΔL = {dl:.3}, stiffness factor {}", p.stiffness_factor),
+        ),
         x_label: "t/τ_c".into(),
         y_label: "(L − L_0)/L_0,  H/L_0".into(),
         series: vec![
-            Series::new("DEM (L − L_0)/L_0", Style::Line, t.iter().copied().zip(s.iter().map(|v| (v.length - r.l0) / r.l0)).collect(), 0),
-            Series::new("DEM H/L_0", Style::Line, t.iter().copied().zip(s.iter().map(|v| v.height / r.l0)).collect(), 1),
+            Series::new(
+                "DEM (L − L_0)/L_0",
+                Style::Line,
+                t.iter()
+                    .copied()
+                    .zip(s.iter().map(|v| (v.length - r.l0) / r.l0))
+                    .collect(),
+                0,
+            ),
+            Series::new(
+                "DEM H/L_0",
+                Style::Line,
+                t.iter().copied().zip(s.iter().map(|v| v.height / r.l0)).collect(),
+                1,
+            ),
         ],
         ..Default::default()
     };
@@ -552,11 +813,45 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         x_label: "t/τ_c".into(),
         y_label: "E/E_0".into(),
         series: vec![
-            Series::new("E_p/E_0", Style::Line, t.iter().copied().zip(s.iter().map(|v| v.ep / e0)).collect(), 0),
-            Series::new("E_k/E_0", Style::Line, t.iter().copied().zip(s.iter().map(|v| (v.ekx + v.eky) / e0)).collect(), 1),
-            Series::new("E_d/E_0 (eq 4.12)", Style::Line, t.iter().copied().zip(s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0)).collect(), 2),
-            Series::new("frictional W_f/E_0", Style::Line, t.iter().copied().zip(s.iter().map(|v| v.ledger.frictional() / e0)).collect(), 3),
-            Series::new("collisional W_c/E_0", Style::Line, t.iter().copied().zip(s.iter().map(|v| v.ledger.collisional() / e0)).collect(), 4),
+            Series::new(
+                "E_p/E_0",
+                Style::Line,
+                t.iter().copied().zip(s.iter().map(|v| v.ep / e0)).collect(),
+                0,
+            ),
+            Series::new(
+                "E_k/E_0",
+                Style::Line,
+                t.iter().copied().zip(s.iter().map(|v| (v.ekx + v.eky) / e0)).collect(),
+                1,
+            ),
+            Series::new(
+                "E_d/E_0 (eq 4.12)",
+                Style::Line,
+                t.iter()
+                    .copied()
+                    .zip(s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0))
+                    .collect(),
+                2,
+            ),
+            Series::new(
+                "frictional W_f/E_0",
+                Style::Line,
+                t.iter()
+                    .copied()
+                    .zip(s.iter().map(|v| v.ledger.frictional() / e0))
+                    .collect(),
+                3,
+            ),
+            Series::new(
+                "collisional W_c/E_0",
+                Style::Line,
+                t.iter()
+                    .copied()
+                    .zip(s.iter().map(|v| v.ledger.collisional() / e0))
+                    .collect(),
+                4,
+            ),
         ],
         ..Default::default()
     };
@@ -590,7 +885,12 @@ pub struct ShearStageParams {
 
 impl Default for ShearStageParams {
     fn default() -> Self {
-        ShearStageParams { dem: DemParams::default(), stiffness_factor: 1.0, shear: ShearParams::default(), tolerance_deg: 1.0 }
+        ShearStageParams {
+            dem: DemParams::default(),
+            stiffness_factor: 1.0,
+            shear: ShearParams::default(),
+            tolerance_deg: 1.0,
+        }
     }
 }
 
@@ -598,7 +898,12 @@ impl Validate for ShearStageParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
         check_dem(&self.dem, self.stiffness_factor, &mut c);
-        c.check(self.shear.pressures.len() >= 2 && self.shear.pressures.iter().all(|p| *p > 0.0), "shear.pressures", format!("{:?}", self.shear.pressures), "at least two pressures > 0 [Pa]");
+        c.check(
+            self.shear.pressures.len() >= 2 && self.shear.pressures.iter().all(|p| *p > 0.0),
+            "shear.pressures",
+            format!("{:?}", self.shear.pressures),
+            "at least two pressures > 0 [Pa]",
+        );
         c.in_open("shear.inertial_number", self.shear.inertial_number, 0.0, 1.0);
         c.positive("shear.strain", self.shear.strain);
         c.positive("tolerance_deg", self.tolerance_deg);
@@ -618,14 +923,17 @@ fn run_shear(ctx: &StageCtx) -> anyhow::Result<Output> {
     ctx.set_progress(1.0);
     let pts = &r.points;
     let mut out = Output::default();
-    out.table("table", frame(vec![
-        ("pressure_pa", pts.iter().map(|q| q.pressure).collect()),
-        ("sigma_n_pa", pts.iter().map(|q| q.sigma_n).collect()),
-        ("tau_pa", pts.iter().map(|q| q.tau).collect()),
-        ("mu", pts.iter().map(|q| q.mu).collect()),
-        ("inertial_number", pts.iter().map(|q| q.inertial_number).collect()),
-        ("velocity_m_s", pts.iter().map(|q| q.velocity).collect()),
-    ])?);
+    out.table(
+        "table",
+        frame(vec![
+            ("pressure_pa", pts.iter().map(|q| q.pressure).collect()),
+            ("sigma_n_pa", pts.iter().map(|q| q.sigma_n).collect()),
+            ("tau_pa", pts.iter().map(|q| q.tau).collect()),
+            ("mu", pts.iter().map(|q| q.mu).collect()),
+            ("inertial_number", pts.iter().map(|q| q.inertial_number).collect()),
+            ("velocity_m_s", pts.iter().map(|q| q.velocity).collect()),
+        ])?,
+    );
     let mut sp = Vec::new();
     let mut ss = Vec::new();
     let mut sm = Vec::new();
@@ -636,30 +944,70 @@ fn run_shear(ctx: &StageCtx) -> anyhow::Result<Output> {
             sm.push(if s.sigma_n > 0.0 { s.tau / s.sigma_n } else { f64::NAN });
         }
     }
-    out.table("series", frame(vec![("pressure_pa", sp), ("shear_strain", ss), ("tau_over_sigma_n", sm)])?);
+    out.table(
+        "series",
+        frame(vec![
+            ("pressure_pa", sp),
+            ("shear_strain", ss),
+            ("tau_over_sigma_n", sm),
+        ])?,
+    );
     out.scalar("friction_angle_deg", r.friction_angle_deg)
         .scalar("friction_angle_free_fit_deg", r.friction_angle_free_deg)
         .scalar("cohesion_free_fit_pa", r.cohesion_free)
         .scalar("grains", r.grains as f64)
         .scalar("pressures", total as f64)
-        .scalar("max_inertial_number", pts.iter().map(|q| q.inertial_number).fold(0.0, f64::max))
+        .scalar(
+            "max_inertial_number",
+            pts.iter().map(|q| q.inertial_number).fold(0.0, f64::max),
+        )
         .scalar("mu_r", p.dem.rolling.mu_r)
         .scalar("stiffness_factor", p.stiffness_factor);
-    out.claims.push(Claim::abs("friction-angle", "\"A critical state friction angle of 22.2° was obtained\" (table 4.3: 22.2 ± 0.2°)", 22.2, r.friction_angle_deg, p.tolerance_deg).calibrated());
+    out.claims.push(
+        Claim::abs(
+            "friction-angle",
+            "\"A critical state friction angle of 22.2° was obtained\" (table 4.3: 22.2 ± 0.2°)",
+            22.2,
+            r.friction_angle_deg,
+            p.tolerance_deg,
+        )
+        .calibrated(),
+    );
     out.checks.push(Claim::at_most("quasi-static", "quasi-static shear: inertial number I < 1e-3 (SC-SHEAR-DEM; imposed through the shear rate) — largest measured I", 1.5e-3, pts.iter().map(|q| q.inertial_number).fold(0.0, f64::max)));
     let smax = pts.iter().map(|q| q.sigma_n).fold(0.0, f64::max) * 1.1 / 1e3;
     let slope = r.friction_angle_deg.to_radians().tan();
     let chart = Chart {
         title: ctx.caption.clone().unwrap_or_else(|| "Periodic shear test".into()),
-        footer: footer(&ctx.profile, &format!("{} grains, φ_cs = {:.2}°, stiffness factor {}", r.grains, r.friction_angle_deg, p.stiffness_factor)),
+        footer: footer(
+            &ctx.profile,
+            &format!(
+                "{} grains, φ_cs = {:.2}°, stiffness factor {}",
+                r.grains, r.friction_angle_deg, p.stiffness_factor
+            ),
+        ),
         x_label: "normal stress σ'_n [kPa]".into(),
         y_label: "critical-state shear stress τ [kPa]".into(),
         x_range: Some((0.0, smax)),
         y_range: Some((0.0, smax * slope.max(0.3) * 1.2)),
         series: vec![
-            Series::new("DEM, time-averaged critical state", Style::Points, pts.iter().map(|q| (q.sigma_n / 1e3, q.tau / 1e3)).collect(), 0),
-            Series::new(format!("fit through origin: tan φ, φ = {:.2}°", r.friction_angle_deg), Style::Dashed, vec![(0.0, 0.0), (smax, smax * slope)], 1),
-            Series::new("stated: φ = 22.2°", Style::Dashed, vec![(0.0, 0.0), (smax, smax * 22.2f64.to_radians().tan())], 7),
+            Series::new(
+                "DEM, time-averaged critical state",
+                Style::Points,
+                pts.iter().map(|q| (q.sigma_n / 1e3, q.tau / 1e3)).collect(),
+                0,
+            ),
+            Series::new(
+                format!("fit through origin: tan φ, φ = {:.2}°", r.friction_angle_deg),
+                Style::Dashed,
+                vec![(0.0, 0.0), (smax, smax * slope)],
+                1,
+            ),
+            Series::new(
+                "stated: φ = 22.2°",
+                Style::Dashed,
+                vec![(0.0, 0.0), (smax, smax * 22.2f64.to_radians().tan())],
+                7,
+            ),
         ],
         ..Default::default()
     };
@@ -691,7 +1039,11 @@ pub struct CompressStageParams {
 
 impl Default for CompressStageParams {
     fn default() -> Self {
-        CompressStageParams { dem: DemParams::default(), stiffness_factor: 1.0, compression: CompressionParams::default() }
+        CompressStageParams {
+            dem: DemParams::default(),
+            stiffness_factor: 1.0,
+            compression: CompressionParams::default(),
+        }
     }
 }
 
@@ -701,7 +1053,12 @@ impl Validate for CompressStageParams {
         check_dem(&self.dem, self.stiffness_factor, &mut c);
         c.positive("compression.strain_rate", self.compression.strain_rate);
         c.positive("compression.max_strain", self.compression.max_strain);
-        c.check(self.compression.fit_strain > 0.0 && self.compression.fit_strain <= self.compression.max_strain, "compression.fit_strain", self.compression.fit_strain, "in (0, max_strain]");
+        c.check(
+            self.compression.fit_strain > 0.0 && self.compression.fit_strain <= self.compression.max_strain,
+            "compression.fit_strain",
+            self.compression.fit_strain,
+            "in (0, max_strain]",
+        );
         c.in_open("compression.poisson", self.compression.poisson, -1.0, 0.5);
         c.issues
     }
@@ -714,11 +1071,14 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
     let col = column_from(ctx.input("column")?, run.density)?;
     let r = compression_test(&col, &run, &p.compression)?;
     let mut out = Output::default();
-    out.table("table", frame(vec![
-        ("axial_strain", r.curve.iter().map(|c| c.strain).collect()),
-        ("axial_stress_pa", r.curve.iter().map(|c| c.stress).collect()),
-        ("lateral_stress_pa", r.curve.iter().map(|c| c.lateral).collect()),
-    ])?);
+    out.table(
+        "table",
+        frame(vec![
+            ("axial_strain", r.curve.iter().map(|c| c.strain).collect()),
+            ("axial_stress_pa", r.curve.iter().map(|c| c.stress).collect()),
+            ("lateral_stress_pa", r.curve.iter().map(|c| c.lateral).collect()),
+        ])?,
+    );
     // Measured at the stiffness it ran with (the sample is re-settled at that stiffness
     // first): no rescaling. A low-stress packing's modulus does not scale with k_n (its
     // seating response is dominated by contact creation, tests/dem_compression.rs).
@@ -730,14 +1090,41 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
     out.claims.push(Claim::rel("youngs-modulus", "E = 1.98e6 N/m², \"initial slope of the stress-strain plot of a uni-axial compression of a laterally confined granular column\" (I12: that slope is M; E = M(1+ν)(1−2ν)/(1−ν))", 1.98e6, r.young, 0.25));
     out.note(format!("Constrained modulus M = {:.3e} Pa (slope over the first {:.2} % strain), E = {:.3e} Pa with ν = {}; K_0 = {:.3}. Contact stiffness factor {} (the affine estimate of figures.md I12 scales with k_n).", r.modulus, 100.0 * p.compression.fit_strain, r.young, p.compression.poisson, r.k0, p.stiffness_factor));
     let chart = Chart {
-        title: ctx.caption.clone().unwrap_or_else(|| "Laterally confined compression".into()),
-        footer: footer(&ctx.profile, &format!("M = {:.3e} Pa, E = {:.3e} Pa", r.modulus, r.young)),
+        title: ctx
+            .caption
+            .clone()
+            .unwrap_or_else(|| "Laterally confined compression".into()),
+        footer: footer(
+            &ctx.profile,
+            &format!("M = {:.3e} Pa, E = {:.3e} Pa", r.modulus, r.young),
+        ),
         x_label: "axial strain [-]".into(),
         y_label: "stress [Pa]".into(),
         series: vec![
-            Series::new("axial σ_yy", Style::Line, r.curve.iter().map(|c| (c.strain, c.stress)).collect(), 0),
-            Series::new("lateral σ_xx", Style::Line, r.curve.iter().map(|c| (c.strain, c.lateral)).collect(), 1),
-            Series::new(format!("fit: slope M = {:.3e} Pa", r.modulus), Style::Dashed, vec![(0.0, r.curve.first().map(|c| c.stress).unwrap_or(0.0)), (p.compression.fit_strain, r.curve.first().map(|c| c.stress).unwrap_or(0.0) + r.modulus * p.compression.fit_strain)], 2),
+            Series::new(
+                "axial σ_yy",
+                Style::Line,
+                r.curve.iter().map(|c| (c.strain, c.stress)).collect(),
+                0,
+            ),
+            Series::new(
+                "lateral σ_xx",
+                Style::Line,
+                r.curve.iter().map(|c| (c.strain, c.lateral)).collect(),
+                1,
+            ),
+            Series::new(
+                format!("fit: slope M = {:.3e} Pa", r.modulus),
+                Style::Dashed,
+                vec![
+                    (0.0, r.curve.first().map(|c| c.stress).unwrap_or(0.0)),
+                    (
+                        p.compression.fit_strain,
+                        r.curve.first().map(|c| c.stress).unwrap_or(0.0) + r.modulus * p.compression.fit_strain,
+                    ),
+                ],
+                2,
+            ),
         ],
         ..Default::default()
     };
@@ -776,7 +1163,13 @@ pub struct WpParams {
 
 impl Default for WpParams {
     fn default() -> Self {
-        WpParams { dem: DemParams::default(), variants: vec![], run: CollapseParams::default(), ensemble: super::calib::Ensemble::default(), grains_at: String::new() }
+        WpParams {
+            dem: DemParams::default(),
+            variants: vec![],
+            run: CollapseParams::default(),
+            ensemble: super::calib::Ensemble::default(),
+            grains_at: String::new(),
+        }
     }
 }
 
@@ -784,14 +1177,29 @@ impl Validate for WpParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
         check_dem(&self.dem, 1.0, &mut c);
-        c.check(self.variants.len() >= 2, "variants", self.variants.len(), "at least two (the first is the reference)");
+        c.check(
+            self.variants.len() >= 2,
+            "variants",
+            self.variants.len(),
+            "at least two (the first is the reference)",
+        );
         for (i, v) in self.variants.iter().enumerate() {
             c.in_open_closed(&format!("variants[{i}].stiffness_factor"), v.stiffness_factor, 0.0, 1.0);
             c.in_open_closed(&format!("variants[{i}].dt_fraction"), v.dt_fraction, 0.0, 0.5);
         }
-        c.check(self.ensemble.members >= 3 && self.ensemble.members <= 64, "ensemble.members", self.ensemble.members, "an integer in [3, 64] (an error needs a spread)");
+        c.check(
+            self.ensemble.members >= 3 && self.ensemble.members <= 64,
+            "ensemble.members",
+            self.ensemble.members,
+            "an integer in [3, 64] (an error needs a spread)",
+        );
         if !self.grains_at.is_empty() {
-            c.check(self.variants.iter().any(|v| v.label == self.grains_at), "grains_at", &self.grains_at, "the label of one of `variants`");
+            c.check(
+                self.variants.iter().any(|v| v.label == self.grains_at),
+                "grains_at",
+                &self.grains_at,
+                "the label of one of `variants`",
+            );
         }
         c.issues
     }
@@ -801,14 +1209,39 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut p: WpParams = decode(ctx)?;
     super::calib::apply_calibration(ctx, &mut p.dem)?;
     let col = column_from(ctx.input("column")?, p.dem.density)?;
-    let mut rows = work_precision(&col, &p.dem, &p.run, &p.variants, p.ensemble.members, p.ensemble.perturbation_m, p.ensemble.seed)?;
+    let mut rows = work_precision(
+        &col,
+        &p.dem,
+        &p.run,
+        &p.variants,
+        p.ensemble.members,
+        p.ensemble.perturbation_m,
+        p.ensemble.seed,
+    )?;
     let mut grains: Vec<f64> = vec![col.state.len() as f64; rows.len()];
     // Grain-count knob: one variant on the coarser column, its error against the reference
     // (the stiffest, finest setting on the full column) as every other row's.
     if let Some(inp) = ctx.input_opt("coarser") {
         let coarse = column_from(inp, p.dem.density)?;
-        let v = if p.grains_at.is_empty() { p.variants[1].clone() } else { p.variants.iter().find(|v| v.label == p.grains_at).cloned().unwrap_or_else(|| p.variants[1].clone()) };
-        let mut r = work_precision(&coarse, &p.dem, &p.run, std::slice::from_ref(&v), p.ensemble.members, p.ensemble.perturbation_m, p.ensemble.seed)?.remove(0);
+        let v = if p.grains_at.is_empty() {
+            p.variants[1].clone()
+        } else {
+            p.variants
+                .iter()
+                .find(|v| v.label == p.grains_at)
+                .cloned()
+                .unwrap_or_else(|| p.variants[1].clone())
+        };
+        let mut r = work_precision(
+            &coarse,
+            &p.dem,
+            &p.run,
+            std::slice::from_ref(&v),
+            p.ensemble.members,
+            p.ensemble.perturbation_m,
+            p.ensemble.seed,
+        )?
+        .remove(0);
         let (m0, s0, n0) = (rows[0].mean, rows[0].spread, rows[0].delta_l.len() as f64);
         let n = r.delta_l.len() as f64;
         r.error = (r.mean - m0).abs() / m0.abs().max(1e-12);
@@ -820,65 +1253,148 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     let n_full = col.state.len() as f64;
     let mut out = Output::default();
     let idx: Vec<f64> = (0..rows.len()).map(|i| i as f64).collect();
-    out.table("table", frame(vec![
-        ("variant", idx.clone()),
-        ("stiffness_factor", rows.iter().map(|r| r.variant.stiffness_factor).collect()),
-        ("dt_fraction", rows.iter().map(|r| r.variant.dt_fraction).collect()),
-        ("grains", grains.clone()),
-        ("dt_s", rows.iter().map(|r| r.dt).collect()),
-        ("steps", rows.iter().map(|r| r.steps as f64).collect()),
-        ("members", rows.iter().map(|r| r.delta_l.len() as f64).collect()),
-        ("runout_norm_mean", rows.iter().map(|r| r.mean).collect()),
-        ("runout_norm_std", rows.iter().map(|r| r.spread).collect()),
-        ("hf_over_l0", rows.iter().map(|r| r.h_final_over_l0).collect()),
-        ("runout_rel_error", rows.iter().map(|r| r.error).collect()),
-        ("runout_rel_error_se", rows.iter().map(|r| r.error_spread).collect()),
-        // the other quantities the column figures report: duration (fig 4.11's stop) and
-        // final energy (fig 4.13's E_p(end)/E_p(0)), same ensemble-mean measure
-        ("duration_tau_mean", rows.iter().map(|r| ensemble_error(&r.duration, &rows[0].duration).0).collect()),
-        ("duration_rel_error", rows.iter().map(|r| ensemble_error(&r.duration, &rows[0].duration).1).collect()),
-        ("duration_rel_error_se", rows.iter().map(|r| ensemble_error(&r.duration, &rows[0].duration).2).collect()),
-        ("ep_final_mean", rows.iter().map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).0).collect()),
-        ("ep_final_rel_error", rows.iter().map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).1).collect()),
-        ("ep_final_rel_error_se", rows.iter().map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).2).collect()),
-    ])?);
-    out.table("timing", frame(vec![
-        ("variant", idx),
-        ("wall_s", rows.iter().map(|r| r.wall_s).collect()),
-        ("settle_wall_s", rows.iter().map(|r| r.settle_wall_s).collect()),
-    ])?);
-    out.scalar("reference_runout_mean", rows[0].mean).scalar("reference_runout_std", rows[0].spread).scalar("grains", col.state.len() as f64).scalar("members", p.ensemble.members as f64);
+    out.table(
+        "table",
+        frame(vec![
+            ("variant", idx.clone()),
+            (
+                "stiffness_factor",
+                rows.iter().map(|r| r.variant.stiffness_factor).collect(),
+            ),
+            ("dt_fraction", rows.iter().map(|r| r.variant.dt_fraction).collect()),
+            ("grains", grains.clone()),
+            ("dt_s", rows.iter().map(|r| r.dt).collect()),
+            ("steps", rows.iter().map(|r| r.steps as f64).collect()),
+            ("members", rows.iter().map(|r| r.delta_l.len() as f64).collect()),
+            ("runout_norm_mean", rows.iter().map(|r| r.mean).collect()),
+            ("runout_norm_std", rows.iter().map(|r| r.spread).collect()),
+            ("hf_over_l0", rows.iter().map(|r| r.h_final_over_l0).collect()),
+            ("runout_rel_error", rows.iter().map(|r| r.error).collect()),
+            ("runout_rel_error_se", rows.iter().map(|r| r.error_spread).collect()),
+            // the other quantities the column figures report: duration (fig 4.11's stop) and
+            // final energy (fig 4.13's E_p(end)/E_p(0)), same ensemble-mean measure
+            (
+                "duration_tau_mean",
+                rows.iter()
+                    .map(|r| ensemble_error(&r.duration, &rows[0].duration).0)
+                    .collect(),
+            ),
+            (
+                "duration_rel_error",
+                rows.iter()
+                    .map(|r| ensemble_error(&r.duration, &rows[0].duration).1)
+                    .collect(),
+            ),
+            (
+                "duration_rel_error_se",
+                rows.iter()
+                    .map(|r| ensemble_error(&r.duration, &rows[0].duration).2)
+                    .collect(),
+            ),
+            (
+                "ep_final_mean",
+                rows.iter()
+                    .map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).0)
+                    .collect(),
+            ),
+            (
+                "ep_final_rel_error",
+                rows.iter()
+                    .map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).1)
+                    .collect(),
+            ),
+            (
+                "ep_final_rel_error_se",
+                rows.iter()
+                    .map(|r| ensemble_error(&r.ep_final, &rows[0].ep_final).2)
+                    .collect(),
+            ),
+        ])?,
+    );
+    out.table(
+        "timing",
+        frame(vec![
+            ("variant", idx),
+            ("wall_s", rows.iter().map(|r| r.wall_s).collect()),
+            ("settle_wall_s", rows.iter().map(|r| r.settle_wall_s).collect()),
+        ])?,
+    );
+    out.scalar("reference_runout_mean", rows[0].mean)
+        .scalar("reference_runout_std", rows[0].spread)
+        .scalar("grains", col.state.len() as f64)
+        .scalar("members", p.ensemble.members as f64);
     for r in &rows {
         let key = r.variant.label.replace(|c: char| !c.is_ascii_alphanumeric(), "_");
-        out.scalar(&format!("error_{key}"), r.error).scalar(&format!("error_se_{key}"), r.error_spread).scalar(&format!("runout_mean_{key}"), r.mean).scalar(&format!("runout_std_{key}"), r.spread);
+        out.scalar(&format!("error_{key}"), r.error)
+            .scalar(&format!("error_se_{key}"), r.error_spread)
+            .scalar(&format!("runout_mean_{key}"), r.mean)
+            .scalar(&format!("runout_std_{key}"), r.spread);
         let (_, de, dse) = ensemble_error(&r.duration, &rows[0].duration);
         let (_, ee, ese) = ensemble_error(&r.ep_final, &rows[0].ep_final);
-        out.scalar(&format!("duration_error_{key}"), de).scalar(&format!("duration_error_se_{key}"), dse).scalar(&format!("ep_final_error_{key}"), ee).scalar(&format!("ep_final_error_se_{key}"), ese);
+        out.scalar(&format!("duration_error_{key}"), de)
+            .scalar(&format!("duration_error_se_{key}"), dse)
+            .scalar(&format!("ep_final_error_{key}"), ee)
+            .scalar(&format!("ep_final_error_se_{key}"), ese);
     }
     out.note(format!(
         "Each setting re-settled at its own stiffness and step, then {} perturbed starts (≤ {:.0e} m). Reference: {} (k factor {}, Δt = {:.2} t_c) → ΔL = {:.4} ± {:.4} (s.d.). Per setting, mean ± s.d. and one-collapse wall time: {}.",
         p.ensemble.members, p.ensemble.perturbation_m, rows[0].variant.label, rows[0].variant.stiffness_factor, rows[0].variant.dt_fraction, rows[0].mean, rows[0].spread,
         rows.iter().map(|r| format!("{} {:.3} ± {:.3}, {:.1} s", r.variant.label, r.mean, r.spread, r.wall_s)).collect::<Vec<_>>().join("; ")
     ));
-    let mut factors: Vec<f64> = rows.iter().zip(&grains).skip(1).filter(|(_, g)| **g == n_full).map(|(r, _)| r.variant.stiffness_factor).collect();
+    let mut factors: Vec<f64> = rows
+        .iter()
+        .zip(&grains)
+        .skip(1)
+        .filter(|(_, g)| **g == n_full)
+        .map(|(r, _)| r.variant.stiffness_factor)
+        .collect();
     factors.sort_by(|a, b| b.total_cmp(a));
     factors.dedup();
     let series = factors
         .iter()
         .enumerate()
         .map(|(k, f)| {
-            let sel: Vec<&crate::dem::column::WorkPrecisionRow> = rows.iter().zip(&grains).skip(1).filter(|(r, g)| r.variant.stiffness_factor == *f && **g == n_full).map(|(r, _)| r).collect();
-            Series::new(format!("k_n × {f} (mean error ± s.e.)"), Style::LinePoints, sel.iter().map(|r| (r.wall_s, r.error.max(1e-4))).collect(), k)
-                .with_errors(sel.iter().map(|r| r.error_spread).collect())
+            let sel: Vec<&crate::dem::column::WorkPrecisionRow> = rows
+                .iter()
+                .zip(&grains)
+                .skip(1)
+                .filter(|(r, g)| r.variant.stiffness_factor == *f && **g == n_full)
+                .map(|(r, _)| r)
+                .collect();
+            Series::new(
+                format!("k_n × {f} (mean error ± s.e.)"),
+                Style::LinePoints,
+                sel.iter().map(|r| (r.wall_s, r.error.max(1e-4))).collect(),
+                k,
+            )
+            .with_errors(sel.iter().map(|r| r.error_spread).collect())
         })
         .collect::<Vec<_>>();
     let mut series = series;
     for (r, g) in rows.iter().zip(&grains).filter(|(_, g)| **g != n_full) {
-        series.push(Series::new(format!("{g} grains (of {n_full}), {}", r.variant.label), Style::Points, vec![(r.wall_s, r.error.max(1e-4))], 6).with_errors(vec![r.error_spread]));
+        series.push(
+            Series::new(
+                format!("{g} grains (of {n_full}), {}", r.variant.label),
+                Style::Points,
+                vec![(r.wall_s, r.error.max(1e-4))],
+                6,
+            )
+            .with_errors(vec![r.error_spread]),
+        );
     }
     let chart = Chart::work_precision(
         ctx.caption.clone().unwrap_or_else(|| "DEM work-precision".into()),
-        footer(&ctx.profile, &format!("reference: {} (ΔL = {:.3} ± {:.3}), {} grains, {} starts per setting", rows[0].variant.label, rows[0].mean, rows[0].spread, col.state.len(), p.ensemble.members)),
+        footer(
+            &ctx.profile,
+            &format!(
+                "reference: {} (ΔL = {:.3} ± {:.3}), {} grains, {} starts per setting",
+                rows[0].variant.label,
+                rows[0].mean,
+                rows[0].spread,
+                col.state.len(),
+                p.ensemble.members
+            ),
+        ),
         series,
     );
     out.figure("figure", chart.to_svg()?);
@@ -897,7 +1413,6 @@ pub const WP_KIND: Kind = Kind {
 
 /// Gravity used by the DEM stages (for documentation of τ_c).
 pub const GRAVITY: f64 = G;
-
 
 #[cfg(test)]
 mod network_tests {

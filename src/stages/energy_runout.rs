@@ -32,15 +32,36 @@ pub struct Params {
 }
 
 impl Default for Params {
-    fn default() -> Self { Params { a_split: 2.7, similar_tolerance: 0.2, agreement_tolerance: 0.25 } }
+    fn default() -> Self {
+        Params {
+            a_split: 2.7,
+            similar_tolerance: 0.2,
+            agreement_tolerance: 0.25,
+        }
+    }
 }
 
 impl Validate for Params {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(self.a_split.is_finite() && self.a_split > 0.0, "a_split", self.a_split, "a finite aspect ratio > 0");
-        c.check(self.similar_tolerance > 0.0 && self.similar_tolerance < 1.0, "similar_tolerance", self.similar_tolerance, "in (0, 1)");
-        c.check(self.agreement_tolerance > 0.0 && self.agreement_tolerance < 1.0, "agreement_tolerance", self.agreement_tolerance, "in (0, 1)");
+        c.check(
+            self.a_split.is_finite() && self.a_split > 0.0,
+            "a_split",
+            self.a_split,
+            "a finite aspect ratio > 0",
+        );
+        c.check(
+            self.similar_tolerance > 0.0 && self.similar_tolerance < 1.0,
+            "similar_tolerance",
+            self.similar_tolerance,
+            "in (0, 1)",
+        );
+        c.check(
+            self.agreement_tolerance > 0.0 && self.agreement_tolerance < 1.0,
+            "agreement_tolerance",
+            self.agreement_tolerance,
+            "in (0, 1)",
+        );
         c.issues
     }
 }
@@ -57,8 +78,14 @@ fn columns(ctx: &StageCtx, role: &str) -> anyhow::Result<Vec<(f64, f64, f64)>> {
     for inp in ctx.inputs_of(role) {
         let t = inp.table("table")?;
         let ek = col_f64(&t, "ek_j")?;
-        let ep0 = *col_f64(&t, "ep_j")?.first().ok_or_else(|| anyhow::anyhow!("input `{}`: empty table", inp.id))?;
-        v.push((inp.scalar("a")?, column_energy(&ek, ep0, inp.scalar("h0_m")?), inp.scalar("runout_norm")?));
+        let ep0 = *col_f64(&t, "ep_j")?
+            .first()
+            .ok_or_else(|| anyhow::anyhow!("input `{}`: empty table", inp.id))?;
+        v.push((
+            inp.scalar("a")?,
+            column_energy(&ek, ep0, inp.scalar("h0_m")?),
+            inp.scalar("runout_norm")?,
+        ));
     }
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(v)
@@ -92,21 +119,51 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
     }
     let mut out = Output::default();
-    out.table("table", DataFrame::new_infer_height(vec![Column::new("family".into(), fam.clone()), Column::new("a".into(), a), Column::new("energy_mgd".into(), x.clone()), Column::new("dl".into(), y.clone())])?);
+    out.table(
+        "table",
+        DataFrame::new_infer_height(vec![
+            Column::new("family".into(), fam.clone()),
+            Column::new("a".into(), a),
+            Column::new("energy_mgd".into(), x.clone()),
+            Column::new("dl".into(), y.clone()),
+        ])?,
+    );
     // Column MPM against DEM at the same a (the DEM's a is measured on the deposit: paired
     // within 5 %; the sweeps' values are ≥ 20 % apart), either side of a = 2.7.
-    let pairs: Vec<(f64, f64)> = cd.iter().filter_map(|d| cm.iter().find(|m| (m.0 - d.0).abs() <= 0.05 * d.0).map(|m| (d.0, m.2 / d.2))).collect();
-    let mean = |v: Vec<f64>| if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 };
+    let pairs: Vec<(f64, f64)> = cd
+        .iter()
+        .filter_map(|d| {
+            cm.iter()
+                .find(|m| (m.0 - d.0).abs() <= 0.05 * d.0)
+                .map(|m| (d.0, m.2 / d.2))
+        })
+        .collect();
+    let mean = |v: Vec<f64>| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
     let tall = mean(pairs.iter().filter(|q| q.0 > p.a_split).map(|q| q.1).collect());
     let short = mean(pairs.iter().filter(|q| q.0 <= p.a_split).map(|q| q.1).collect());
-    out.scalar("column_mpm_over_dem_tall", tall).scalar("column_mpm_over_dem_short", short);
+    out.scalar("column_mpm_over_dem_tall", tall)
+        .scalar("column_mpm_over_dem_short", short);
     out.claims.push(Claim::at_least("column-mpm-longer-tall", &format!("\"MPM predicts longer run-out for high energy regime (corresponding to a > 2.7)\": mean ΔL_MPM/ΔL_DEM over the columns with a > {} (≥ 1)", p.a_split), 1.0, tall));
     out.claims.push(Claim::rel("column-similar-short", &format!("\"MPM and DEM predict similar run-out behaviour for low energy regime (short columns)\": mean ΔL_MPM/ΔL_DEM over a ≤ {} (tolerance {} %, UNSPEC)", p.a_split, 100.0 * p.similar_tolerance), 1.0, short, p.similar_tolerance));
     // Piles: MPM against DEM at equal E_0.
-    let ratios: Vec<(f64, f64)> = pd.iter().filter_map(|d| pm.iter().find(|m| (m.0 - d.0).abs() < 1e-6 * d.0).map(|m| (d.0, m.1 / d.1))).collect();
+    let ratios: Vec<(f64, f64)> = pd
+        .iter()
+        .filter_map(|d| {
+            pm.iter()
+                .find(|m| (m.0 - d.0).abs() < 1e-6 * d.0)
+                .map(|m| (d.0, m.1 / d.1))
+        })
+        .collect();
     let agree = mean(ratios.iter().map(|q| q.1).collect());
     let lowest = ratios.first().map(|q| 1.0 / q.1).unwrap_or(f64::NAN);
-    out.scalar("pile_mpm_over_dem_mean", agree).scalar("pile_dem_over_mpm_lowest", lowest);
+    out.scalar("pile_mpm_over_dem_mean", agree)
+        .scalar("pile_dem_over_mpm_lowest", lowest);
     out.claims.push(Claim::rel("pile-agreement", &format!("\"In the case of granular column subjected to horizontal velocity … MPM is able to predict the run-out response in good agreement with DEM simulations\": mean ΔL_MPM/ΔL_DEM over the common E_0 (per E_0: {}; tolerance {} %, UNSPEC)", ratios.iter().map(|q| format!("{:.2}", q.1)).collect::<Vec<_>>().join(", "), 100.0 * p.agreement_tolerance), 1.0, agree, p.agreement_tolerance));
     out.claims.push(Claim::at_least("pile-dem-longer-low", &format!("\"At very low energy, DEM simulations show longer run-out in the case of slope subjected to excitations\": ΔL_DEM/ΔL_MPM at the lowest common E_0 ({} mgd; ≥ 1)", ratios.first().map(|q| q.0).unwrap_or(f64::NAN)), 1.0, lowest));
     // "Both granular flows … show power-law relation with the energy": R² of a log–log fit.
@@ -115,7 +172,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         let (xs, ys): (Vec<f64>, Vec<f64>) = (0..fam.len()).filter(|&k| fam[k] == name).map(|k| (x[k], y[k])).unzip();
         if let Ok(f) = power_law(&xs, &ys) {
             let key = name.replace(' ', "_").to_lowercase();
-            out.scalar(&format!("{key}_exponent"), f.exponent).scalar(&format!("{key}_exponent_se"), f.exponent_se).scalar(&format!("{key}_r2"), f.r2);
+            out.scalar(&format!("{key}_exponent"), f.exponent)
+                .scalar(&format!("{key}_exponent_se"), f.exponent_se)
+                .scalar(&format!("{key}_r2"), f.r2);
             worst = worst.min(f.r2);
         }
     }

@@ -96,18 +96,41 @@ impl Default for FitParams {
 impl Validate for FitParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(self.regimes == 1 || self.regimes == 2, "regimes", self.regimes, "1 or 2");
+        c.check(
+            self.regimes == 1 || self.regimes == 2,
+            "regimes",
+            self.regimes,
+            "1 or 2",
+        );
         if let Some(b) = self.break_x {
             c.positive("break_x", b);
         }
         if let Some(f) = &self.fixed_exponents {
-            c.check(f.len() == self.regimes, "fixed_exponents", format!("{f:?}"), "one exponent per regime");
+            c.check(
+                f.len() == self.regimes,
+                "fixed_exponents",
+                format!("{f:?}"),
+                "one exponent per regime",
+            );
         }
         for (i, p) in self.paper.iter().enumerate() {
-            c.check(p.regime < self.regimes, &format!("paper[{i}].regime"), p.regime, "0 (low/single) or 1 (high, with regimes: 2)");
+            c.check(
+                p.regime < self.regimes,
+                &format!("paper[{i}].regime"),
+                p.regime,
+                "0 (low/single) or 1 (high, with regimes: 2)",
+            );
         }
         for l in &self.overlay_laws {
-            c.check(super::laws::eval(l, 1.0).is_some(), "overlay_laws", l, &format!("one of {}", super::laws::LAWS.iter().map(|l| l.0).collect::<Vec<_>>().join(", ")));
+            c.check(
+                super::laws::eval(l, 1.0).is_some(),
+                "overlay_laws",
+                l,
+                &format!(
+                    "one of {}",
+                    super::laws::LAWS.iter().map(|l| l.0).collect::<Vec<_>>().join(", ")
+                ),
+            );
         }
         c.issues
     }
@@ -116,7 +139,11 @@ impl Validate for FitParams {
 fn gather(ctx: &StageCtx, p: &FitParams) -> anyhow::Result<(Vec<f64>, Vec<f64>)> {
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     let data = ctx.inputs_of("data");
-    anyhow::ensure!(!data.is_empty(), "stage `{}` needs inputs under the role `data`", ctx.id);
+    anyhow::ensure!(
+        !data.is_empty(),
+        "stage `{}` needs inputs under the role `data`",
+        ctx.id
+    );
     for inp in data {
         match p.source {
             Source::Table => {
@@ -130,7 +157,10 @@ fn gather(ctx: &StageCtx, p: &FitParams) -> anyhow::Result<(Vec<f64>, Vec<f64>)>
             }
         }
     }
-    let keep: Vec<bool> = xs.iter().map(|&x| p.x_min.is_none_or(|m| x >= m) && p.x_max.is_none_or(|m| x <= m)).collect();
+    let keep: Vec<bool> = xs
+        .iter()
+        .map(|&x| p.x_min.is_none_or(|m| x >= m) && p.x_max.is_none_or(|m| x <= m))
+        .collect();
     let xs2 = xs.iter().zip(&keep).filter(|(_, k)| **k).map(|(x, _)| *x).collect();
     let ys2 = ys.iter().zip(&keep).filter(|(_, k)| **k).map(|(y, _)| *y).collect();
     Ok((xs2, ys2))
@@ -151,8 +181,18 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         break_x = t.break_x;
         match &p.fixed_exponents {
             Some(e) => {
-                let (lx, ly): (Vec<f64>, Vec<f64>) = x.iter().zip(&y).filter(|(a, _)| **a <= break_x).map(|(a, b)| (*a, *b)).unzip();
-                let (hx, hy): (Vec<f64>, Vec<f64>) = x.iter().zip(&y).filter(|(a, _)| **a > break_x).map(|(a, b)| (*a, *b)).unzip();
+                let (lx, ly): (Vec<f64>, Vec<f64>) = x
+                    .iter()
+                    .zip(&y)
+                    .filter(|(a, _)| **a <= break_x)
+                    .map(|(a, b)| (*a, *b))
+                    .unzip();
+                let (hx, hy): (Vec<f64>, Vec<f64>) = x
+                    .iter()
+                    .zip(&y)
+                    .filter(|(a, _)| **a > break_x)
+                    .map(|(a, b)| (*a, *b))
+                    .unzip();
                 fits.push(fixed_exponent(&lx, &ly, e[0])?);
                 fits.push(fixed_exponent(&hx, &hy, e[1])?);
             }
@@ -173,13 +213,20 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             ("exponent", fits.iter().map(|f| f.exponent).collect()),
             ("exponent_se", fits.iter().map(|f| f.exponent_se).collect()),
             ("prefactor", fits.iter().map(|f| f.prefactor).collect()),
-            ("log10_prefactor_se", fits.iter().map(|f| f.log10_prefactor_se).collect()),
+            (
+                "log10_prefactor_se",
+                fits.iter().map(|f| f.log10_prefactor_se).collect(),
+            ),
             ("r2", fits.iter().map(|f| f.r2).collect()),
             ("n_points", fits.iter().map(|f| f.n as f64).collect()),
         ])?,
     );
     out.table("points", frame(vec![("x", x.clone()), ("y", y.clone())])?);
-    let names = if fits.len() == 1 { vec![""] } else { vec!["_low", "_high"] };
+    let names = if fits.len() == 1 {
+        vec![""]
+    } else {
+        vec!["_low", "_high"]
+    };
     for (f, n) in fits.iter().zip(&names) {
         out.scalar(&format!("exponent{n}"), f.exponent)
             .scalar(&format!("exponent_se{n}"), f.exponent_se)
@@ -192,18 +239,47 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     for (i, q) in p.paper.iter().enumerate() {
         let f = &fits[q.regime];
         let tol = q.tolerance.unwrap_or(2.0 * f.exponent_se + q.paper_error);
-        let id = format!("exponent-{}", if fits.len() == 1 { "single".to_string() } else if q.regime == 0 { "low".into() } else { "high".into() });
-        let id = if p.paper.len() > 1 && p.paper.iter().filter(|o| o.regime == q.regime).count() > 1 { format!("{id}-{i}") } else { id };
-        out.claims.push(Claim::abs(&id, &q.statement, q.exponent, f.exponent, tol));
+        let id = format!(
+            "exponent-{}",
+            if fits.len() == 1 {
+                "single".to_string()
+            } else if q.regime == 0 {
+                "low".into()
+            } else {
+                "high".into()
+            }
+        );
+        let id = if p.paper.len() > 1 && p.paper.iter().filter(|o| o.regime == q.regime).count() > 1 {
+            format!("{id}-{i}")
+        } else {
+            id
+        };
+        out.claims
+            .push(Claim::abs(&id, &q.statement, q.exponent, f.exponent, tol));
     }
     // Figure: data, fits (dashed, "fit"), stated laws (dashed, "stated law").
-    let mut series = vec![Series::new("data", Style::Points, x.iter().copied().zip(y.iter().copied()).collect(), 0)];
+    let mut series = vec![Series::new(
+        "data",
+        Style::Points,
+        x.iter().copied().zip(y.iter().copied()).collect(),
+        0,
+    )];
     for (k, f) in fits.iter().enumerate() {
-        let pts: Vec<(f64, f64)> = (0..50).map(|i| {
-            let xv = f.x_min * (f.x_max / f.x_min).powf(i as f64 / 49.0);
-            (xv, f.eval(xv))
-        }).collect();
-        series.push(Series::new(format!("fit: {:.3}·x^({:.3} ± {:.3}), R² = {:.3}", f.prefactor, f.exponent, f.exponent_se, f.r2), Style::Dashed, pts, 1 + k));
+        let pts: Vec<(f64, f64)> = (0..50)
+            .map(|i| {
+                let xv = f.x_min * (f.x_max / f.x_min).powf(i as f64 / 49.0);
+                (xv, f.eval(xv))
+            })
+            .collect();
+        series.push(Series::new(
+            format!(
+                "fit: {:.3}·x^({:.3} ± {:.3}), R² = {:.3}",
+                f.prefactor, f.exponent, f.exponent_se, f.r2
+            ),
+            Style::Dashed,
+            pts,
+            1 + k,
+        ));
     }
     if !p.overlay_laws.is_empty() {
         let laws = ctx.input("laws")?.table("table")?;
@@ -211,10 +287,21 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         for (k, l) in p.overlay_laws.iter().enumerate() {
             let v = col_f64(&laws, l)?;
             let label = super::laws::LAWS.iter().find(|x| x.0 == l).map(|x| x.1).unwrap_or(l);
-            series.push(Series::new(label, Style::Dashed, a.iter().copied().zip(v).collect(), 4 + k));
+            series.push(Series::new(
+                label,
+                Style::Dashed,
+                a.iter().copied().zip(v).collect(),
+                4 + k,
+            ));
         }
     }
-    let chart = Chart::log_log(ctx.caption.clone().unwrap_or_else(|| format!("{} vs {}", p.y, p.x)), footer(&ctx.profile, ""), &p.x_label, &p.y_label, series);
+    let chart = Chart::log_log(
+        ctx.caption.clone().unwrap_or_else(|| format!("{} vs {}", p.y, p.x)),
+        footer(&ctx.profile, ""),
+        &p.x_label,
+        &p.y_label,
+        series,
+    );
     out.figure("figure", chart.to_svg()?);
     Ok(out)
 }

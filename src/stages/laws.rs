@@ -14,17 +14,47 @@ use crate::validate::{Checker, Issue};
 pub fn eval(name: &str, a: f64) -> Option<f64> {
     Some(match name {
         // eq 4.6 (DEM): 1.67a for a ≲ 2.7, 2.7a^(2/3) for a ≳ 2.7 (discontinuous, I4).
-        "eq4_6_runout" => if a <= 2.7 { 1.67 * a } else { 2.7 * a.powf(2.0 / 3.0) },
+        "eq4_6_runout" => {
+            if a <= 2.7 {
+                1.67 * a
+            } else {
+                2.7 * a.powf(2.0 / 3.0)
+            }
+        }
         // eq 4.7: H_f/L_0 ∝ a (a ≲ 0.7), ∝ a^(2/3) (a ≳ 0.7). The chapter gives no
         // prefactors: we take H_f/L_0 = a below (undisturbed top) and make the upper
         // branch continuous at 0.7: 0.7^(1/3)·a^(2/3). Documented choice.
-        "eq4_7_height" => if a <= 0.7 { a } else { 0.7f64.powf(1.0 / 3.0) * a.powf(2.0 / 3.0) },
+        "eq4_7_height" => {
+            if a <= 0.7 {
+                a
+            } else {
+                0.7f64.powf(1.0 / 3.0) * a.powf(2.0 / 3.0)
+            }
+        }
         // Thesis ch. 2, Lajeunesse et al. (2005): 1.35a (a ≲ 0.74), 2.0a^1.2 (a ≳ 0.74).
-        "lajeunesse2005_runout" => if a <= 0.74 { 1.35 * a } else { 2.0 * a.powf(1.2) },
+        "lajeunesse2005_runout" => {
+            if a <= 0.74 {
+                1.35 * a
+            } else {
+                2.0 * a.powf(1.2)
+            }
+        }
         // Thesis ch. 2, 2D collapse: H_f/L_0 = a (a ≲ 0.7), a^(1/3) (a ≳ 0.7).
-        "lajeunesse2005_height_2d" => if a <= 0.7 { a } else { a.powf(1.0 / 3.0) },
+        "lajeunesse2005_height_2d" => {
+            if a <= 0.7 {
+                a
+            } else {
+                a.powf(1.0 / 3.0)
+            }
+        }
         // Thesis ch. 2, Lube et al. (2005): 1.24a (a ≲ 1.7), 1.6a^1.2 (a ≳ 1.7).
-        "lube2005_runout" => if a <= 1.7 { 1.24 * a } else { 1.6 * a.powf(1.2) },
+        "lube2005_runout" => {
+            if a <= 1.7 {
+                1.24 * a
+            } else {
+                1.6 * a.powf(1.2)
+            }
+        }
         _ => return None,
     })
 }
@@ -32,9 +62,18 @@ pub fn eval(name: &str, a: f64) -> Option<f64> {
 /// Every law name with its legend label.
 pub const LAWS: [(&str, &str); 5] = [
     ("eq4_6_runout", "stated law eq 4.6: (L_f−L_0)/L_0 = 1.67a | 2.7a^(2/3)"),
-    ("eq4_7_height", "stated law eq 4.7: H_f/L_0 ∝ a | a^(2/3) (prefactor: continuity)"),
-    ("lajeunesse2005_runout", "stated law, Lajeunesse et al. 2005: 1.35a | 2.0a^1.2"),
-    ("lajeunesse2005_height_2d", "stated law, Lajeunesse et al. 2005 (2D): a | a^(1/3)"),
+    (
+        "eq4_7_height",
+        "stated law eq 4.7: H_f/L_0 ∝ a | a^(2/3) (prefactor: continuity)",
+    ),
+    (
+        "lajeunesse2005_runout",
+        "stated law, Lajeunesse et al. 2005: 1.35a | 2.0a^1.2",
+    ),
+    (
+        "lajeunesse2005_height_2d",
+        "stated law, Lajeunesse et al. 2005 (2D): a | a^(1/3)",
+    ),
     ("lube2005_runout", "stated law, Lube et al. 2005: 1.24a | 1.6a^1.2"),
 ];
 
@@ -52,7 +91,11 @@ pub struct LawParams {
 
 impl Default for LawParams {
     fn default() -> Self {
-        LawParams { a_min: 0.1, a_max: 12.0, n_points: 241 }
+        LawParams {
+            a_min: 0.1,
+            a_max: 12.0,
+            n_points: 241,
+        }
     }
 }
 
@@ -61,19 +104,31 @@ impl Validate for LawParams {
         let mut c = Checker::new("");
         c.positive("a_min", self.a_min);
         c.check(self.a_max > self.a_min, "a_max", self.a_max, "> a_min");
-        c.check(self.n_points >= 2 && self.n_points <= 100_000, "n_points", self.n_points, "an integer in [2, 100000]");
+        c.check(
+            self.n_points >= 2 && self.n_points <= 100_000,
+            "n_points",
+            self.n_points,
+            "an integer in [2, 100000]",
+        );
         c.issues
     }
 }
 
 fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: LawParams = decode(ctx)?;
-    let a: Vec<f64> = (0..p.n_points).map(|i| p.a_min * (p.a_max / p.a_min).powf(i as f64 / (p.n_points - 1) as f64)).collect();
+    let a: Vec<f64> = (0..p.n_points)
+        .map(|i| p.a_min * (p.a_max / p.a_min).powf(i as f64 / (p.n_points - 1) as f64))
+        .collect();
     let mut cols = vec![("a", a.clone())];
     let mut series = Vec::new();
     for (i, (name, label)) in LAWS.iter().enumerate() {
         let v: Vec<f64> = a.iter().map(|&x| eval(name, x).unwrap()).collect();
-        series.push(Series::new(*label, Style::Dashed, a.iter().copied().zip(v.iter().copied()).collect(), i));
+        series.push(Series::new(
+            *label,
+            Style::Dashed,
+            a.iter().copied().zip(v.iter().copied()).collect(),
+            i,
+        ));
         cols.push((name, v));
     }
     let mut out = Output::default();

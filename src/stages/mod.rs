@@ -12,18 +12,18 @@ use crate::pipeline::context::{Output, StageCtx};
 use crate::validate::Issue;
 
 pub mod calib;
-pub mod column_analysis;
 pub mod cd_stages;
+pub mod column_analysis;
 pub mod compare;
 pub mod dem_stages;
+pub mod energy_runout;
 pub mod fit_stage;
 pub mod laws;
 pub mod mpm_stages;
-pub mod pile_stages;
-pub mod pile_series;
-pub mod energy_runout;
-pub mod pile_packing;
 pub mod pile_compare;
+pub mod pile_packing;
+pub mod pile_series;
+pub mod pile_stages;
 pub mod plot;
 pub mod psd;
 pub mod snapshot;
@@ -86,7 +86,13 @@ pub fn typed<P: DeserializeOwned + Serialize + Validate>(v: &Value) -> Result<Va
                     format!("{path}.{field}")
                 }
             }
-            _ => if path == "." { String::new() } else { path },
+            _ => {
+                if path == "." {
+                    String::new()
+                } else {
+                    path
+                }
+            }
         };
         let (message, allowed) = match inner.split_once(", expected") {
             Some((m, a)) => (m.to_string(), format!("expected{a}")),
@@ -98,7 +104,11 @@ pub fn typed<P: DeserializeOwned + Serialize + Validate>(v: &Value) -> Result<Va
     if !issues.is_empty() {
         return Err(issues
             .into_iter()
-            .map(|i| ParamProblem { key: i.key, message: format!("value {} is not allowed", i.value), allowed: i.allowed })
+            .map(|i| ParamProblem {
+                key: i.key,
+                message: format!("value {} is not allowed", i.value),
+                allowed: i.allowed,
+            })
             .collect());
     }
     Ok(serde_json::to_value(&p).expect("params serialize"))

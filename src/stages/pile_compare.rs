@@ -60,23 +60,79 @@ pub struct CompareParams {
 
 impl Default for CompareParams {
     fn default() -> Self {
-        CompareParams { what: What::Profiles, split_mgd: 40.0, longer_ratio: 1.2, weak_tolerance: 0.2, spread_tolerance: 0.02, ensemble_rel: 0.0, at: 20.0, e0_mgd: 61.0, times: vec![], front_tolerance: 0.05 }
+        CompareParams {
+            what: What::Profiles,
+            split_mgd: 40.0,
+            longer_ratio: 1.2,
+            weak_tolerance: 0.2,
+            spread_tolerance: 0.02,
+            ensemble_rel: 0.0,
+            at: 20.0,
+            e0_mgd: 61.0,
+            times: vec![],
+            front_tolerance: 0.05,
+        }
     }
 }
 
 impl Validate for CompareParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(self.split_mgd.is_finite() && self.split_mgd > 0.0, "split_mgd", self.split_mgd, "a finite energy > 0 [mgd]");
-        c.check(self.longer_ratio.is_finite() && self.longer_ratio >= 1.0, "longer_ratio", self.longer_ratio, ">= 1");
-        c.check(self.weak_tolerance.is_finite() && self.weak_tolerance > 0.0, "weak_tolerance", self.weak_tolerance, "> 0");
-        c.check(self.spread_tolerance.is_finite() && self.spread_tolerance > 0.0, "spread_tolerance", self.spread_tolerance, "> 0");
-        c.check(self.ensemble_rel.is_finite() && (0.0..0.2).contains(&self.ensemble_rel), "ensemble_rel", self.ensemble_rel, "in [0, 0.2): relative width of a perturbed-energy ensemble");
-        c.check(self.front_tolerance.is_finite() && self.front_tolerance > 0.0, "front_tolerance", self.front_tolerance, "> 0");
-        c.check(self.at.is_finite() && self.at >= 0.0, "at", self.at, "an instant >= 0 [√(d/g)]");
+        c.check(
+            self.split_mgd.is_finite() && self.split_mgd > 0.0,
+            "split_mgd",
+            self.split_mgd,
+            "a finite energy > 0 [mgd]",
+        );
+        c.check(
+            self.longer_ratio.is_finite() && self.longer_ratio >= 1.0,
+            "longer_ratio",
+            self.longer_ratio,
+            ">= 1",
+        );
+        c.check(
+            self.weak_tolerance.is_finite() && self.weak_tolerance > 0.0,
+            "weak_tolerance",
+            self.weak_tolerance,
+            "> 0",
+        );
+        c.check(
+            self.spread_tolerance.is_finite() && self.spread_tolerance > 0.0,
+            "spread_tolerance",
+            self.spread_tolerance,
+            "> 0",
+        );
+        c.check(
+            self.ensemble_rel.is_finite() && (0.0..0.2).contains(&self.ensemble_rel),
+            "ensemble_rel",
+            self.ensemble_rel,
+            "in [0, 0.2): relative width of a perturbed-energy ensemble",
+        );
+        c.check(
+            self.front_tolerance.is_finite() && self.front_tolerance > 0.0,
+            "front_tolerance",
+            self.front_tolerance,
+            "> 0",
+        );
+        c.check(
+            self.at.is_finite() && self.at >= 0.0,
+            "at",
+            self.at,
+            "an instant >= 0 [√(d/g)]",
+        );
         if self.what == What::Front {
-            c.check(!self.times.is_empty() && self.times.iter().all(|t| t.is_finite() && *t > 0.0), "times", format!("{:?}", self.times), "a non-empty list of instants > 0 [√(d/g)]");
-            c.check(self.e0_mgd.is_finite() && self.e0_mgd > 0.0, "e0_mgd", self.e0_mgd, "an input energy > 0 [mgd]");
+            c.check(
+                !self.times.is_empty() && self.times.iter().all(|t| t.is_finite() && *t > 0.0),
+                "times",
+                format!("{:?}", self.times),
+                "a non-empty list of instants > 0 [√(d/g)]",
+            );
+            c.check(
+                self.e0_mgd.is_finite() && self.e0_mgd > 0.0,
+                "e0_mgd",
+                self.e0_mgd,
+                "an input energy > 0 [mgd]",
+            );
         }
         c.issues
     }
@@ -100,37 +156,83 @@ struct Run {
 }
 
 fn run_of(inp: &InputRef) -> anyhow::Result<Run> {
-    let method = inp.params.get("method").and_then(|m| m.as_str()).ok_or_else(|| anyhow::anyhow!("input `{}` is not a pile-run (no `method`)", inp.id))?.to_uppercase();
+    let method = inp
+        .params
+        .get("method")
+        .and_then(|m| m.as_str())
+        .ok_or_else(|| anyhow::anyhow!("input `{}` is not a pile-run (no `method`)", inp.id))?
+        .to_uppercase();
     let df = inp.table("table")?;
-    Ok(Run { method, e: col_f64(&df, "e0_mgd")?, dl: col_f64(&df, "dl")?, tf: col_f64(&df, "tf")? })
+    Ok(Run {
+        method,
+        e: col_f64(&df, "e0_mgd")?,
+        dl: col_f64(&df, "dl")?,
+        tf: col_f64(&df, "tf")?,
+    })
 }
 
 /// Values of `b` at the energies of `a` (exact matches only): (E_0, a, b).
 fn paired(ea: &[f64], ya: &[f64], eb: &[f64], yb: &[f64]) -> Vec<(f64, f64, f64)> {
-    ea.iter().zip(ya).filter_map(|(e, y)| eb.iter().position(|x| (x - e).abs() <= 1e-9 * e.abs()).map(|j| (*e, *y, yb[j]))).collect()
+    ea.iter()
+        .zip(ya)
+        .filter_map(|(e, y)| {
+            eb.iter()
+                .position(|x| (x - e).abs() <= 1e-9 * e.abs())
+                .map(|j| (*e, *y, yb[j]))
+        })
+        .collect()
 }
 
 /// Geometric mean of positive ratios (NaN when none).
 fn geo_mean(r: &[f64]) -> f64 {
     let v: Vec<f64> = r.iter().cloned().filter(|x| *x > 0.0 && x.is_finite()).collect();
-    if v.is_empty() { f64::NAN } else { (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp() }
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp()
+    }
 }
 
 fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
-    let grad: Vec<Run> = ctx.inputs_of("gradient").iter().map(run_of).collect::<anyhow::Result<_>>()?;
-    let unif: Vec<Run> = ctx.inputs_of("uniform").iter().map(run_of).collect::<anyhow::Result<_>>()?;
+    let grad: Vec<Run> = ctx
+        .inputs_of("gradient")
+        .iter()
+        .map(run_of)
+        .collect::<anyhow::Result<_>>()?;
+    let unif: Vec<Run> = ctx
+        .inputs_of("uniform")
+        .iter()
+        .map(run_of)
+        .collect::<anyhow::Result<_>>()?;
     let (mut sa, mut sb) = (Vec::new(), Vec::new());
     let mut rows: Vec<(String, f64, f64, f64, f64, f64)> = Vec::new();
     for (ci, g) in grad.iter().enumerate() {
-        let u = unif.iter().find(|u| u.method == g.method).ok_or_else(|| anyhow::anyhow!("no uniform run of method {} among the `uniform` inputs", g.method))?;
+        let u = unif
+            .iter()
+            .find(|u| u.method == g.method)
+            .ok_or_else(|| anyhow::anyhow!("no uniform run of method {} among the `uniform` inputs", g.method))?;
         let m = g.method.to_lowercase();
         for (run, lab, style) in [(g, "gradient", Style::Points), (u, "uniform", Style::Line)] {
-            sa.push(Series::new(format!("{} {lab}", g.method), style, run.e.iter().cloned().zip(run.dl.iter().cloned()).collect(), ci));
-            sb.push(Series::new(format!("{} {lab}", g.method), style, run.e.iter().cloned().zip(run.tf.iter().cloned()).collect(), ci));
+            sa.push(Series::new(
+                format!("{} {lab}", g.method),
+                style,
+                run.e.iter().cloned().zip(run.dl.iter().cloned()).collect(),
+                ci,
+            ));
+            sb.push(Series::new(
+                format!("{} {lab}", g.method),
+                style,
+                run.e.iter().cloned().zip(run.tf.iter().cloned()).collect(),
+                ci,
+            ));
         }
         let dl = paired(&g.e, &g.dl, &u.e, &u.dl);
         let tf = paired(&g.e, &g.tf, &u.e, &u.tf);
-        anyhow::ensure!(!dl.is_empty(), "the {} gradient and uniform runs share no input energy", g.method);
+        anyhow::ensure!(
+            !dl.is_empty(),
+            "the {} gradient and uniform runs share no input energy",
+            g.method
+        );
         for ((e, dg, du), (_, tg, tu)) in dl.iter().zip(&tf) {
             rows.push((g.method.clone(), *e, *dg, *du, *tg, *tu));
         }
@@ -138,7 +240,9 @@ fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
         let high: Vec<f64> = dl.iter().filter(|q| q.0 > p.split_mgd).map(|q| q.1 / q.2).collect();
         let tfr: Vec<f64> = tf.iter().map(|q| q.1 / q.2).collect();
         let (rl, rh, rt) = (geo_mean(&low), geo_mean(&high), geo_mean(&tfr));
-        out.scalar(&format!("{m}_dl_ratio_low"), rl).scalar(&format!("{m}_dl_ratio_high"), rh).scalar(&format!("{m}_tf_ratio"), rt);
+        out.scalar(&format!("{m}_dl_ratio_low"), rl)
+            .scalar(&format!("{m}_dl_ratio_high"), rh)
+            .scalar(&format!("{m}_tf_ratio"), rt);
         out.claims.push(Claim::at_least(
             &format!("{m}-gradient-longer-low"),
             &format!("{}: \"At low input energy, the gradient velocity distribution shows significantly longer run-out in comparison to uniform velocity distribution\" (geometric mean of ΔL_gradient/ΔL_uniform below {} mgd over {} energies; 'significantly': ≥ {})", g.method, p.split_mgd, low.len(), p.longer_ratio),
@@ -170,10 +274,34 @@ fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
             polars::prelude::Column::new("tf_uniform".into(), rows.iter().map(|r| r.5).collect::<Vec<_>>()),
         ])?,
     );
-    let title = ctx.caption.clone().unwrap_or_else(|| "Gradient against uniform excitation".into());
-    let foot = footer(&ctx.profile, "points: gradient v_x = k(y_max − y); lines: uniform V_0; both scaled so Σ½mv_x² = E_0 (D19)");
-    let ca = Chart { legend: Legend::UpperLeft, ..Chart::log_log(format!("{title} — (a) run-out"), foot.clone(), "E_0 / (m g d) per grain", "(L_f − L_0) / L_0", sa) };
-    let cb = Chart { legend: Legend::UpperLeft, ..Chart::log_log(format!("{title} — (b) duration"), foot, "E_0 / (m g d) per grain", "t_f / √(d/g)", sb) };
+    let title = ctx
+        .caption
+        .clone()
+        .unwrap_or_else(|| "Gradient against uniform excitation".into());
+    let foot = footer(
+        &ctx.profile,
+        "points: gradient v_x = k(y_max − y); lines: uniform V_0; both scaled so Σ½mv_x² = E_0 (D19)",
+    );
+    let ca = Chart {
+        legend: Legend::UpperLeft,
+        ..Chart::log_log(
+            format!("{title} — (a) run-out"),
+            foot.clone(),
+            "E_0 / (m g d) per grain",
+            "(L_f − L_0) / L_0",
+            sa,
+        )
+    };
+    let cb = Chart {
+        legend: Legend::UpperLeft,
+        ..Chart::log_log(
+            format!("{title} — (b) duration"),
+            foot,
+            "E_0 / (m g d) per grain",
+            "t_f / √(d/g)",
+            sb,
+        )
+    };
     out.figure("figure", ca.to_svg()?);
     out.figure("duration", cb.to_svg()?);
     Ok(())
@@ -182,10 +310,18 @@ fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
 fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
     let mut runs = Vec::new();
     for inp in ctx.inputs_of("runs") {
-        let eps = inp.params.pointer("/cd/restitution_n").and_then(|v| v.as_f64()).ok_or_else(|| anyhow::anyhow!("input `{}` is not a CD pile-run (no cd.restitution_n)", inp.id))?;
+        let eps = inp
+            .params
+            .pointer("/cd/restitution_n")
+            .and_then(|v| v.as_f64())
+            .ok_or_else(|| anyhow::anyhow!("input `{}` is not a CD pile-run (no cd.restitution_n)", inp.id))?;
         runs.push((eps, run_of(inp)?));
     }
-    anyhow::ensure!(runs.len() >= 2, "a restitution comparison needs at least two runs, got {}", runs.len());
+    anyhow::ensure!(
+        runs.len() >= 2,
+        "a restitution comparison needs at least two runs, got {}",
+        runs.len()
+    );
     // Ensembles: the first run's energies, sorted, chained while neighbours are within
     // ensemble_rel; a run's members of a group are its energies inside the group's range.
     let tol = p.ensemble_rel.max(1e-9);
@@ -201,7 +337,12 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
     let (mut ce, mut cs, mut cm, mut cw, mut cn) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut series = Vec::new();
     for (k, (eps, r)) in runs.iter().enumerate() {
-        series.push(Series::new(format!("CD ε_n = ε_t = {eps}"), Style::Points, r.e.iter().cloned().zip(r.dl.iter().cloned()).collect(), k));
+        series.push(Series::new(
+            format!("CD ε_n = ε_t = {eps}"),
+            Style::Points,
+            r.e.iter().cloned().zip(r.dl.iter().cloned()).collect(),
+            k,
+        ));
     }
     for (lo, hi) in &groups {
         let inside = |e: f64| e >= lo * (1.0 - 1e-9) && e <= hi * (1.0 + 1e-9);
@@ -209,12 +350,20 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         let mut within: f64 = 0.0;
         let mut members = usize::MAX;
         for (_, r) in &runs {
-            let v: Vec<f64> = r.e.iter().zip(&r.dl).filter(|(e, _)| inside(**e)).map(|(_, d)| *d).collect();
+            let v: Vec<f64> =
+                r.e.iter()
+                    .zip(&r.dl)
+                    .filter(|(e, _)| inside(**e))
+                    .map(|(_, d)| *d)
+                    .collect();
             if v.is_empty() {
                 break;
             }
             let m = v.iter().sum::<f64>() / v.len() as f64;
-            within = within.max((v.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - v.iter().cloned().fold(f64::INFINITY, f64::min)) / m);
+            within = within.max(
+                (v.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - v.iter().cloned().fold(f64::INFINITY, f64::min))
+                    / m,
+            );
             members = members.min(v.len());
             means.push(m);
         }
@@ -223,12 +372,20 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         }
         let mean = means.iter().sum::<f64>() / means.len() as f64;
         ce.push((lo * hi).sqrt());
-        cs.push((means.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - means.iter().cloned().fold(f64::INFINITY, f64::min)) / mean);
+        cs.push(
+            (means.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                - means.iter().cloned().fold(f64::INFINITY, f64::min))
+                / mean,
+        );
         cm.push(mean);
         cw.push(within);
         cn.push(members as f64);
     }
-    anyhow::ensure!(!ce.is_empty(), "the restitution runs share no input energy (within ensemble_rel = {})", p.ensemble_rel);
+    anyhow::ensure!(
+        !ce.is_empty(),
+        "the restitution runs share no input energy (within ensemble_rel = {})",
+        p.ensemble_rel
+    );
     for (e, w) in ce.iter().zip(&cw) {
         out.scalar(&format!("scatter_at_{e:.2}"), *w);
     }
@@ -238,7 +395,16 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         out.scalar(&format!("spread_at_{e:.2}"), *s);
     }
     out.scalar("spread_max", worst);
-    out.table("table", frame(vec![("e0_mgd", ce.clone()), ("dl_mean", cm), ("dl_spread", cs.clone()), ("dl_scatter_within_eps", cw.clone()), ("members", cn)])?);
+    out.table(
+        "table",
+        frame(vec![
+            ("e0_mgd", ce.clone()),
+            ("dl_mean", cm),
+            ("dl_spread", cs.clone()),
+            ("dl_scatter_within_eps", cw.clone()),
+            ("members", cn),
+        ])?,
+    );
     let eps: Vec<String> = runs.iter().map(|r| format!("{}", r.0)).collect();
     out.claims.push(Claim::at_most(
         "restitution-no-difference",
@@ -247,8 +413,13 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         worst,
     ));
     let chart = Chart::log_log(
-        ctx.caption.clone().unwrap_or_else(|| "CD run-out against E_0 for several restitution coefficients".into()),
-        footer(&ctx.profile, &format!("largest spread of ΔL over ε: {:.1} %", 100.0 * worst)),
+        ctx.caption
+            .clone()
+            .unwrap_or_else(|| "CD run-out against E_0 for several restitution coefficients".into()),
+        footer(
+            &ctx.profile,
+            &format!("largest spread of ΔL over ε: {:.1} %", 100.0 * worst),
+        ),
         "E_0 / (m g d) per grain",
         "(L_f − L_0) / L_0",
         series,
@@ -258,24 +429,51 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
 }
 
 fn metric_at(inp: &InputRef, col: &str, t: f64) -> anyhow::Result<f64> {
-    let df = inp.table("snapshot_metrics").map_err(|e| anyhow::anyhow!("input `{}` has no snapshot_metrics (give it `snapshots`): {e}", inp.id))?;
+    let df = inp
+        .table("snapshot_metrics")
+        .map_err(|e| anyhow::anyhow!("input `{}` has no snapshot_metrics (give it `snapshots`): {e}", inp.id))?;
     let ts = col_f64(&df, "t_over_sqrt_d_g")?;
     let v = col_f64(&df, col)?;
     // frames are taken at sample instants; a fixed-step solver lands within a step of them
-    let k = ts.iter().position(|x| (x - t).abs() < 0.1).ok_or_else(|| anyhow::anyhow!("input `{}` has no snapshot within 0.1 √(d/g) of t = {t} √(d/g) (it has {ts:?})", inp.id))?;
+    let k = ts.iter().position(|x| (x - t).abs() < 0.1).ok_or_else(|| {
+        anyhow::anyhow!(
+            "input `{}` has no snapshot within 0.1 √(d/g) of t = {t} √(d/g) (it has {ts:?})",
+            inp.id
+        )
+    })?;
     Ok(v[k])
 }
 
 fn run_cavity(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
     let g = ctx.inputs_of("gradient");
     let u = ctx.inputs_of("uniform");
-    anyhow::ensure!(g.len() == u.len() && !g.is_empty(), "give as many `gradient` as `uniform` snapshot runs (got {} and {})", g.len(), u.len());
+    anyhow::ensure!(
+        g.len() == u.len() && !g.is_empty(),
+        "give as many `gradient` as `uniform` snapshot runs (got {} and {})",
+        g.len(),
+        u.len()
+    );
     for (gi, ui) in g.iter().zip(u) {
-        let m = gi.params.get("method").and_then(|m| m.as_str()).unwrap_or("?").to_string();
+        let m = gi
+            .params
+            .get("method")
+            .and_then(|m| m.as_str())
+            .unwrap_or("?")
+            .to_string();
         let (cg, cu) = (metric_at(gi, "cavity_d2", p.at)?, metric_at(ui, "cavity_d2", p.at)?);
-        out.scalar(&format!("{m}_cavity_gradient_d2"), cg).scalar(&format!("{m}_cavity_uniform_d2"), cu);
-        let ratio = if cg > 0.0 { cu / cg } else if cu > 0.0 { f64::INFINITY } else { f64::NAN };
-        out.scalar(&format!("{m}_cavity_ratio"), if ratio.is_finite() { ratio } else { -1.0 });
+        out.scalar(&format!("{m}_cavity_gradient_d2"), cg)
+            .scalar(&format!("{m}_cavity_uniform_d2"), cu);
+        let ratio = if cg > 0.0 {
+            cu / cg
+        } else if cu > 0.0 {
+            f64::INFINITY
+        } else {
+            f64::NAN
+        };
+        out.scalar(
+            &format!("{m}_cavity_ratio"),
+            if ratio.is_finite() { ratio } else { -1.0 },
+        );
         out.claims.push(Claim::at_least(
             &format!("{m}-cavity-larger-uniform"),
             &format!("{}: \"unlike the gradient input velocity, the cavity left behind the granular mass is not filled\" — cavity area at t = {} √(d/g), uniform over gradient, > 1 (uniform {cu:.1} d², gradient {cg:.1} d²)", m.to_uppercase(), p.at),
@@ -291,9 +489,19 @@ fn run_front(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Res
         let inp = ctx.input(role)?;
         let df = inp.table("series")?;
         let (e, t, l) = (col_f64(&df, "e0_mgd")?, col_f64(&df, "t")?, col_f64(&df, "l_d")?);
-        let keep: Vec<usize> = (0..e.len()).filter(|&i| (e[i] - p.e0_mgd).abs() <= 1e-9 * p.e0_mgd).collect();
-        anyhow::ensure!(!keep.is_empty(), "input `{}` has no run at E_0 = {} mgd", inp.id, p.e0_mgd);
-        Ok((keep.iter().map(|&i| t[i]).collect(), keep.iter().map(|&i| l[i]).collect()))
+        let keep: Vec<usize> = (0..e.len())
+            .filter(|&i| (e[i] - p.e0_mgd).abs() <= 1e-9 * p.e0_mgd)
+            .collect();
+        anyhow::ensure!(
+            !keep.is_empty(),
+            "input `{}` has no run at E_0 = {} mgd",
+            inp.id,
+            p.e0_mgd
+        );
+        Ok((
+            keep.iter().map(|&i| t[i]).collect(),
+            keep.iter().map(|&i| l[i]).collect(),
+        ))
     };
     let (tm, lm) = series("mpm")?;
     let (td, ld) = series("dem")?;
@@ -311,7 +519,15 @@ fn run_front(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Res
         out.scalar(&format!("rel_diff_at_{t}"), r);
     }
     out.scalar("rel_diff_max", worst);
-    out.table("table", frame(vec![("t_over_sqrt_d_g", cols.0), ("l_mpm_d", cols.1), ("l_dem_d", cols.2), ("rel_diff", cols.3)])?);
+    out.table(
+        "table",
+        frame(vec![
+            ("t_over_sqrt_d_g", cols.0),
+            ("l_mpm_d", cols.1),
+            ("l_dem_d", cols.2),
+            ("rel_diff", cols.3),
+        ])?,
+    );
     out.claims.push(Claim::at_most(
         "mpm-dem-front",
         &format!("\"the continuum behaviour is identical to that of grain-scale simulations\": largest |L_MPM − L_DEM|/L_DEM of the front at t ∈ {:?} √(d/g), E_0 = {} mgd (figures.md: within ~5 %)", p.times, p.e0_mgd),

@@ -38,7 +38,16 @@ pub struct PackingParams {
 }
 
 impl Default for PackingParams {
-    fn default() -> Self { PackingParams { dem: DemParams::default(), stiffness_factor: 1.0, e0_mgd: 152.0, profile: Profile::Gradient, sample_every: 1.0, t_max: 80.0 } }
+    fn default() -> Self {
+        PackingParams {
+            dem: DemParams::default(),
+            stiffness_factor: 1.0,
+            e0_mgd: 152.0,
+            profile: Profile::Gradient,
+            sample_every: 1.0,
+            t_max: 80.0,
+        }
+    }
 }
 
 impl Validate for PackingParams {
@@ -48,17 +57,44 @@ impl Validate for PackingParams {
             c.fail(&format!("dem.{}", i.key), i.value, &i.allowed);
         }
         c.in_open_closed("stiffness_factor", self.stiffness_factor, 0.0, 1.0);
-        c.check(self.e0_mgd.is_finite() && self.e0_mgd > 0.0, "e0_mgd", self.e0_mgd, "a finite input energy E_0 > 0 [m g d per grain]");
-        c.check(self.sample_every.is_finite() && self.sample_every > 0.0, "sample_every", self.sample_every, "a finite interval > 0 [√(d/g)]");
-        c.check(self.t_max.is_finite() && self.t_max >= 10.0 * self.sample_every && self.t_max <= 1000.0, "t_max", self.t_max, "in [10 × sample_every, 1000] √(d/g)");
+        c.check(
+            self.e0_mgd.is_finite() && self.e0_mgd > 0.0,
+            "e0_mgd",
+            self.e0_mgd,
+            "a finite input energy E_0 > 0 [m g d per grain]",
+        );
+        c.check(
+            self.sample_every.is_finite() && self.sample_every > 0.0,
+            "sample_every",
+            self.sample_every,
+            "a finite interval > 0 [√(d/g)]",
+        );
+        c.check(
+            self.t_max.is_finite() && self.t_max >= 10.0 * self.sample_every && self.t_max <= 1000.0,
+            "t_max",
+            self.t_max,
+            "in [10 × sample_every, 1000] √(d/g)",
+        );
         c.issues
     }
 }
 
 /// φ of the main mass: its solid area over the area under its surface (2 d bins).
 pub fn main_mass_packing(s: &State, link: Link) -> f64 {
-    let idx = main_mass(&Body { x: &s.x, y: &s.y, half: &s.r, mass: &s.m }, link);
-    let (x, y, r): (Vec<f64>, Vec<f64>, Vec<f64>) = (idx.iter().map(|&i| s.x[i]).collect(), idx.iter().map(|&i| s.y[i]).collect(), idx.iter().map(|&i| s.r[i]).collect());
+    let idx = main_mass(
+        &Body {
+            x: &s.x,
+            y: &s.y,
+            half: &s.r,
+            mass: &s.m,
+        },
+        link,
+    );
+    let (x, y, r): (Vec<f64>, Vec<f64>, Vec<f64>) = (
+        idx.iter().map(|&i| s.x[i]).collect(),
+        idx.iter().map(|&i| s.y[i]).collect(),
+        idx.iter().map(|&i| s.r[i]).collect(),
+    );
     let l = x.iter().zip(&r).map(|(x, r)| x + r).fold(0.0, f64::max);
     let bin = 2.0 * D_NORM;
     let prof = surface_profile(&x, &y, &r, l, bin);
@@ -69,9 +105,22 @@ pub fn main_mass_packing(s: &State, link: Link) -> f64 {
 fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: PackingParams = decode(ctx)?;
     let pin = ctx.input("pile")?;
-    anyhow::ensure!(pin.scalar("settled")? == 1.0, "input pile `{}` did not come to rest before the excitation", pin.id);
-    let f = pin.params.get("stiffness_factor").and_then(|v| v.as_f64()).unwrap_or(1.0);
-    anyhow::ensure!(f == p.stiffness_factor, "stiffness_factor {} differs from the pile `{}`'s {f}: use the same value", p.stiffness_factor, pin.id);
+    anyhow::ensure!(
+        pin.scalar("settled")? == 1.0,
+        "input pile `{}` did not come to rest before the excitation",
+        pin.id
+    );
+    let f = pin
+        .params
+        .get("stiffness_factor")
+        .and_then(|v| v.as_f64())
+        .unwrap_or(1.0);
+    anyhow::ensure!(
+        f == p.stiffness_factor,
+        "stiffness_factor {} differs from the pile `{}`'s {f}: use the same value",
+        p.stiffness_factor,
+        pin.id
+    );
     let df = pin.table("table")?;
     let (x, y, r) = (col_f64(&df, "x_m")?, col_f64(&df, "y_m")?, col_f64(&df, "r_m")?);
     let mut s = State::new();
@@ -86,7 +135,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let e0 = p.e0_mgd * s.len() as f64 * M_NORM * g * D_NORM;
     let top = (0..s.len()).map(|i| s.y[i] + s.r[i]).fold(0.0, f64::max);
     s.vx = excitation(p.profile, &s.y, &s.m, top, e0);
-    let link = Link::Contact { gap: 0.01 * 2.0 * s.radius_stats().1 };
+    let link = Link::Contact {
+        gap: 0.01 * 2.0 * s.radius_stats().1,
+    };
     let mut w = World::new(run, s, pile_walls(), None)?;
     let (mut ts, mut phi) = (vec![0.0], vec![main_mass_packing(&w.state, link)]);
     while w.t < (p.t_max - 0.5 * p.sample_every) * tu {
@@ -98,7 +149,12 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     out.table("table", frame(vec![("t", ts.clone()), ("phi", phi.clone())])?);
     let k_min = (1..phi.len()).min_by(|&a, &b| phi[a].total_cmp(&phi[b])).unwrap_or(0);
     let (phi0, phi_min, t_min, phi_end) = (phi[0], phi[k_min], ts[k_min], *phi.last().unwrap());
-    out.scalar("phi_initial", phi0).scalar("phi_min", phi_min).scalar("t_phi_min", t_min).scalar("phi_end", phi_end).scalar("e0_mgd", p.e0_mgd).scalar("grains", x.len() as f64);
+    out.scalar("phi_initial", phi0)
+        .scalar("phi_min", phi_min)
+        .scalar("t_phi_min", t_min)
+        .scalar("phi_end", phi_end)
+        .scalar("e0_mgd", p.e0_mgd)
+        .scalar("grains", x.len() as f64);
     out.claims.push(Claim::abs("dilation-until-20", &format!("fig 4.36: \"The granular mass densifies as the flow progresses, after the initial dilation phase for t = 20√(d/g)\": time of the lowest φ of the main mass [√(d/g)] (tolerance ±10, UNSPEC; φ_min = {phi_min:.3})"), 20.0, t_min, 10.0));
     out.claims.push(Claim::at_least("densifies", &format!("fig 4.36: \"The granular mass densifies as the flow progresses\": φ at t = {} √(d/g) minus its lowest value (> 0; φ_end = {phi_end:.3})", p.t_max), 0.0, phi_end - phi_min));
     let prep_phi = pin.scalar("packing_fraction")?;

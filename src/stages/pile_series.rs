@@ -68,30 +68,78 @@ pub struct SeriesParams {
 
 impl Default for SeriesParams {
     fn default() -> Self {
-        SeriesParams { split_mgd: 40.0, t1: 7.5, zero_ratio: 1e-3, highpass_window: 5.0, labels: vec![], converged_ppc: 25, statements: Statements::default() }
+        SeriesParams {
+            split_mgd: 40.0,
+            t1: 7.5,
+            zero_ratio: 1e-3,
+            highpass_window: 5.0,
+            labels: vec![],
+            converged_ppc: 25,
+            statements: Statements::default(),
+        }
     }
 }
 
 impl Validate for SeriesParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(self.split_mgd.is_finite() && self.split_mgd > 0.0, "split_mgd", self.split_mgd, "a finite energy > 0 [mgd]");
-        c.check(self.t1.is_finite() && self.t1 > 0.0, "t1", self.t1, "a finite time > 0 [√(d/g)]");
-        c.check(self.zero_ratio > 0.0 && self.zero_ratio < 1.0, "zero_ratio", self.zero_ratio, "in (0, 1): a fraction of E_0");
-        c.check(self.highpass_window.is_finite() && self.highpass_window > 0.0, "highpass_window", self.highpass_window, "a finite window > 0 [√(d/g)]");
+        c.check(
+            self.split_mgd.is_finite() && self.split_mgd > 0.0,
+            "split_mgd",
+            self.split_mgd,
+            "a finite energy > 0 [mgd]",
+        );
+        c.check(
+            self.t1.is_finite() && self.t1 > 0.0,
+            "t1",
+            self.t1,
+            "a finite time > 0 [√(d/g)]",
+        );
+        c.check(
+            self.zero_ratio > 0.0 && self.zero_ratio < 1.0,
+            "zero_ratio",
+            self.zero_ratio,
+            "in (0, 1): a fraction of E_0",
+        );
+        c.check(
+            self.highpass_window.is_finite() && self.highpass_window > 0.0,
+            "highpass_window",
+            self.highpass_window,
+            "a finite window > 0 [√(d/g)]",
+        );
         if let Some(t) = self.statements.dissipated_by {
-            c.check(t.is_finite() && t > 0.0, "statements.dissipated_by", t, "a finite time > 0 [√(d/g)]");
+            c.check(
+                t.is_finite() && t > 0.0,
+                "statements.dissipated_by",
+                t,
+                "a finite time > 0 [√(d/g)]",
+            );
         }
         for (i, l) in self.labels.iter().enumerate() {
-            c.check(!l.is_empty() && !l.starts_with('.') && !l.ends_with('.'), &format!("labels[{i}]"), l, "a dotted param path (`mpm.ppc`) or a scalar name of the run stage");
+            c.check(
+                !l.is_empty() && !l.starts_with('.') && !l.ends_with('.'),
+                &format!("labels[{i}]"),
+                l,
+                "a dotted param path (`mpm.ppc`) or a scalar name of the run stage",
+            );
         }
         let has = |k: &str| self.labels.iter().any(|l| l == k);
         if self.statements.ppc {
-            c.check(has("mpm.ppc") && has("mpm.cell_size"), "labels", format!("{:?}", self.labels), "`mpm.ppc` and `mpm.cell_size` among the labels (statements.ppc)");
+            c.check(
+                has("mpm.ppc") && has("mpm.cell_size"),
+                "labels",
+                format!("{:?}", self.labels),
+                "`mpm.ppc` and `mpm.cell_size` among the labels (statements.ppc)",
+            );
             c.check(self.converged_ppc >= 1, "converged_ppc", self.converged_ppc, ">= 1");
         }
         if self.statements.friction {
-            c.check(has("mpm_base_friction"), "labels", format!("{:?}", self.labels), "`mpm_base_friction` among the labels (statements.friction)");
+            c.check(
+                has("mpm_base_friction"),
+                "labels",
+                format!("{:?}", self.labels),
+                "`mpm_base_friction` among the labels (statements.friction)",
+            );
         }
         c.issues
     }
@@ -174,18 +222,58 @@ pub fn derive(r: &Run, t1: f64, zero_ratio: f64, window: f64) -> Derived {
     let ekx_mgd: Vec<f64> = r.ekx.iter().map(|v| v * r.e0).collect();
     let ekx0 = interp(&r.t, &ekx_mgd, t1);
     let tau = first_crossing(&r.t, &ekx_mgd, t1, 0.5 * ekx0) - t1;
-    let (k_peak, eky_peak) = r.eky.iter().enumerate().fold((0, 0.0), |a, (k, v)| if *v > a.1 { (k, *v) } else { a });
+    let (k_peak, eky_peak) = r
+        .eky
+        .iter()
+        .enumerate()
+        .fold((0, 0.0), |a, (k, v)| if *v > a.1 { (k, *v) } else { a });
     let t_eky_peak = r.t.get(k_peak).copied().unwrap_or(f64::NAN);
-    let t1_measured = if eky_peak > 0.0 { first_crossing(&r.t, &r.eky, t_eky_peak, 0.01 * eky_peak) } else { f64::NAN };
-    let t_dissipated = r.t.iter().zip(&r.ek).filter(|(_, e)| **e >= zero_ratio).map(|(t, _)| *t).fold(0.0, f64::max);
-    let erot_over_ek_max = (0..r.t.len()).filter(|&k| r.t[k] <= r.tf && r.ek[k] >= zero_ratio).map(|k| r.erot[k] / r.ek[k]).fold(0.0, f64::max);
-    let integral = |v: &[f64]| -> f64 { (1..r.t.len()).filter(|&k| r.t[k] <= r.tf).map(|k| 0.5 * (v[k] + v[k - 1]) * (r.t[k] - r.t[k - 1])).sum() };
+    let t1_measured = if eky_peak > 0.0 {
+        first_crossing(&r.t, &r.eky, t_eky_peak, 0.01 * eky_peak)
+    } else {
+        f64::NAN
+    };
+    let t_dissipated =
+        r.t.iter()
+            .zip(&r.ek)
+            .filter(|(_, e)| **e >= zero_ratio)
+            .map(|(t, _)| *t)
+            .fold(0.0, f64::max);
+    let erot_over_ek_max = (0..r.t.len())
+        .filter(|&k| r.t[k] <= r.tf && r.ek[k] >= zero_ratio)
+        .map(|k| r.erot[k] / r.ek[k])
+        .fold(0.0, f64::max);
+    let integral = |v: &[f64]| -> f64 {
+        (1..r.t.len())
+            .filter(|&k| r.t[k] <= r.tf)
+            .map(|k| 0.5 * (v[k] + v[k - 1]) * (r.t[k] - r.t[k - 1]))
+            .sum()
+    };
     let erot_share = integral(&r.erot) / integral(&r.ek);
     let hp = highpass(&r.t, &r.eky, window);
-    let win: Vec<f64> = (0..r.t.len()).filter(|&k| r.t[k] >= t1 && r.t[k] <= r.tf).map(|k| hp[k] * hp[k]).collect();
-    let eky_hp_rms = if win.is_empty() { f64::NAN } else { (win.iter().sum::<f64>() / win.len() as f64).sqrt() };
+    let win: Vec<f64> = (0..r.t.len())
+        .filter(|&k| r.t[k] >= t1 && r.t[k] <= r.tf)
+        .map(|k| hp[k] * hp[k])
+        .collect();
+    let eky_hp_rms = if win.is_empty() {
+        f64::NAN
+    } else {
+        (win.iter().sum::<f64>() / win.len() as f64).sqrt()
+    };
     let h0 = r.h.first().copied().unwrap_or(f64::NAN);
-    Derived { ekx0, tau, tfp: r.tf - t1, eky_peak, t_eky_peak, t1_measured, t_dissipated, erot_over_ek_max, erot_share, eky_hp_rms, t_free_fall: (2.0 * h0).sqrt() }
+    Derived {
+        ekx0,
+        tau,
+        tfp: r.tf - t1,
+        eky_peak,
+        t_eky_peak,
+        t1_measured,
+        t_dissipated,
+        erot_over_ek_max,
+        erot_share,
+        eky_hp_rms,
+        t_free_fall: (2.0 * h0).sqrt(),
+    }
 }
 
 /// Largest spread (max − min, or relative to the mean when `relative`) across curves
@@ -197,9 +285,15 @@ pub fn spread(curves: &[(Vec<f64>, Vec<f64>)], grid: &[f64], relative: bool) -> 
     grid.iter()
         .map(|&x| {
             let v: Vec<f64> = curves.iter().map(|(t, y)| interp(t, y, x)).collect();
-            let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, y| (a.0.min(*y), a.1.max(*y)));
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |a, y| (a.0.min(*y), a.1.max(*y)));
             let mean = v.iter().sum::<f64>() / v.len() as f64;
-            if relative { (hi - lo) / mean.abs().max(1e-300) } else { hi - lo }
+            if relative {
+                (hi - lo) / mean.abs().max(1e-300)
+            } else {
+                hi - lo
+            }
         })
         .fold(0.0, f64::max)
 }
@@ -210,7 +304,9 @@ pub fn increases(mut xy: Vec<(f64, f64)>) -> usize {
     xy.windows(2).filter(|w| w[1].1 >= w[0].1).count()
 }
 
-fn grid(lo: f64, hi: f64, n: usize) -> Vec<f64> { (0..=n).map(|k| lo + (hi - lo) * k as f64 / n as f64).collect() }
+fn grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..=n).map(|k| lo + (hi - lo) * k as f64 / n as f64).collect()
+}
 
 /// A label value of an input: its params at a dotted path, else its scalar of that name.
 fn label_of(inp: &InputRef, key: &str) -> anyhow::Result<f64> {
@@ -221,7 +317,12 @@ fn label_of(inp: &InputRef, key: &str) -> anyhow::Result<f64> {
     if let Some(x) = v.and_then(|x| x.as_f64()) {
         return Ok(x);
     }
-    inp.scalars()?.get(key).copied().ok_or_else(|| anyhow::anyhow!("label `{key}`: input `{}` has neither a numeric param nor a scalar of that name", inp.id))
+    inp.scalars()?.get(key).copied().ok_or_else(|| {
+        anyhow::anyhow!(
+            "label `{key}`: input `{}` has neither a numeric param nor a scalar of that name",
+            inp.id
+        )
+    })
 }
 
 /// Runs of the inputs of role `runs`.
@@ -231,14 +332,49 @@ fn read_runs(ctx: &StageCtx, labels: &[String]) -> anyhow::Result<Vec<Run>> {
         let lab: Vec<f64> = labels.iter().map(|k| label_of(inp, k)).collect::<anyhow::Result<_>>()?;
         let tab = inp.table("table")?;
         let ser = inp.table("series")?;
-        let (te, l0, dl, tf) = (col_f64(&tab, "e0_mgd")?, col_f64(&tab, "l0_d")?, col_f64(&tab, "dl")?, col_f64(&tab, "tf")?);
+        let (te, l0, dl, tf) = (
+            col_f64(&tab, "e0_mgd")?,
+            col_f64(&tab, "l0_d")?,
+            col_f64(&tab, "dl")?,
+            col_f64(&tab, "tf")?,
+        );
         let se = col_f64(&ser, "e0_mgd")?;
-        let cols: Vec<Vec<f64>> = ["t", "l_d", "h_d", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0"].iter().map(|c| col_f64(&ser, c)).collect::<anyhow::Result<_>>()?;
+        let cols: Vec<Vec<f64>> = [
+            "t",
+            "l_d",
+            "h_d",
+            "ek_over_e0",
+            "ekx_over_e0",
+            "eky_over_e0",
+            "erot_over_e0",
+        ]
+        .iter()
+        .map(|c| col_f64(&ser, c))
+        .collect::<anyhow::Result<_>>()?;
         for k in 0..te.len() {
             let rows: Vec<usize> = (0..se.len()).filter(|&i| se[i] == te[k]).collect();
-            anyhow::ensure!(rows.len() >= 2, "input `{}`: the run at E_0 = {} mgd has {} samples in `series`", inp.id, te[k], rows.len());
+            anyhow::ensure!(
+                rows.len() >= 2,
+                "input `{}`: the run at E_0 = {} mgd has {} samples in `series`",
+                inp.id,
+                te[k],
+                rows.len()
+            );
             let pick = |c: usize| rows.iter().map(|&i| cols[c][i]).collect::<Vec<f64>>();
-            out.push(Run { labels: lab.clone(), e0: te[k], l0: l0[k], dl: dl[k], tf: tf[k], t: pick(0), l: pick(1), h: pick(2), ek: pick(3), ekx: pick(4), eky: pick(5), erot: pick(6) });
+            out.push(Run {
+                labels: lab.clone(),
+                e0: te[k],
+                l0: l0[k],
+                dl: dl[k],
+                tf: tf[k],
+                t: pick(0),
+                l: pick(1),
+                h: pick(2),
+                ek: pick(3),
+                ekx: pick(4),
+                eky: pick(5),
+                erot: pick(6),
+            });
         }
     }
     anyhow::ensure!(!out.is_empty(), "stage `{}` read no runs (role `runs`)", ctx.id);
@@ -247,15 +383,35 @@ fn read_runs(ctx: &StageCtx, labels: &[String]) -> anyhow::Result<Vec<Run>> {
 
 fn exponent_claim(id: &str, statement: &str, paper: f64, paper_se: f64, x: &[f64], y: &[f64]) -> (Claim, f64, f64) {
     match power_law(x, y) {
-        Ok(f) => (Claim::abs(id, &format!("{statement} (ours {:.3} ± {:.3} over {} runs; tolerance 2 s.e. + the chapter's ±)", f.exponent, f.exponent_se, f.n), paper, f.exponent, 2.0 * f.exponent_se + paper_se), f.exponent, f.exponent_se),
-        Err(e) => (Claim::abs(id, &format!("{statement} (no fit: {e})"), paper, f64::NAN, paper_se), f64::NAN, f64::NAN),
+        Ok(f) => (
+            Claim::abs(
+                id,
+                &format!(
+                    "{statement} (ours {:.3} ± {:.3} over {} runs; tolerance 2 s.e. + the chapter's ±)",
+                    f.exponent, f.exponent_se, f.n
+                ),
+                paper,
+                f.exponent,
+                2.0 * f.exponent_se + paper_se,
+            ),
+            f.exponent,
+            f.exponent_se,
+        ),
+        Err(e) => (
+            Claim::abs(id, &format!("{statement} (no fit: {e})"), paper, f64::NAN, paper_se),
+            f64::NAN,
+            f64::NAN,
+        ),
     }
 }
 
 fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: SeriesParams = decode(ctx)?;
     let runs = read_runs(ctx, &p.labels)?;
-    let der: Vec<Derived> = runs.iter().map(|r| derive(r, p.t1, p.zero_ratio, p.highpass_window)).collect();
+    let der: Vec<Derived> = runs
+        .iter()
+        .map(|r| derive(r, p.t1, p.zero_ratio, p.highpass_window))
+        .collect();
     let lab_cols: Vec<String> = p.labels.iter().map(|l| l.replace('.', "_")).collect();
     let mut out = Output::default();
 
@@ -287,10 +443,32 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     all.extend(table_cols.iter().cloned());
     out.table("table", frame(all.clone())?);
     let high_rows: Vec<usize> = (0..runs.len()).filter(|&k| runs[k].e0 > p.split_mgd).collect();
-    out.table("high", frame(all.iter().map(|(n, v)| (*n, high_rows.iter().map(|&k| v[k]).collect())).collect())?);
+    out.table(
+        "high",
+        frame(
+            all.iter()
+                .map(|(n, v)| (*n, high_rows.iter().map(|&k| v[k]).collect()))
+                .collect(),
+        )?,
+    );
 
     // Per-sample series.
-    let names = ["e0_mgd", "high", "t", "t_prime", "t_prime_over_tau", "l_d", "dl_t", "ek_mgd", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0", "ekx_over_ekx0", "eky_hp"];
+    let names = [
+        "e0_mgd",
+        "high",
+        "t",
+        "t_prime",
+        "t_prime_over_tau",
+        "l_d",
+        "dl_t",
+        "ek_mgd",
+        "ek_over_e0",
+        "ekx_over_e0",
+        "eky_over_e0",
+        "erot_over_e0",
+        "ekx_over_ekx0",
+        "eky_hp",
+    ];
     let mut sc: Vec<Vec<f64>> = vec![Vec::new(); lab_cols.len() + names.len()];
     for (r, d) in runs.iter().zip(&der) {
         let hp = highpass(&r.t, &r.eky, p.highpass_window);
@@ -318,9 +496,16 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             }
         }
     }
-    let snames: Vec<&str> = lab_cols.iter().map(|s| s.as_str()).chain(names.iter().cloned()).collect();
+    let snames: Vec<&str> = lab_cols
+        .iter()
+        .map(|s| s.as_str())
+        .chain(names.iter().cloned())
+        .collect();
     out.table("series", frame(snames.into_iter().zip(sc).collect())?);
-    out.scalar("runs", runs.len() as f64).scalar("high_runs", high_rows.len() as f64).scalar("t1", p.t1).scalar("split_mgd", p.split_mgd);
+    out.scalar("runs", runs.len() as f64)
+        .scalar("high_runs", high_rows.len() as f64)
+        .scalar("t1", p.t1)
+        .scalar("split_mgd", p.split_mgd);
 
     let st = &p.statements;
     let high: Vec<(&Run, &Derived)> = runs.iter().zip(&der).filter(|(r, _)| r.e0 > p.split_mgd).collect();
@@ -330,7 +515,8 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         let curves: Vec<(Vec<f64>, Vec<f64>)> = high.iter().map(|(r, _)| (r.t.clone(), r.ek.clone())).collect();
         let before = spread(&curves, &grid(0.0, p.t1, 30), true);
         let after = spread(&curves, &grid(p.t1, (3.0 * p.t1).min(t_common), 30), true);
-        out.scalar("ek_spread_before_t1", before).scalar("ek_spread_t1_3t1", after);
+        out.scalar("ek_spread_before_t1", before)
+            .scalar("ek_spread_t1_3t1", after);
         out.claims.push(Claim::at_most("ek-collapse-before-t1", &format!("fig 4.34: \"the plots corresponding to the high energy regime … collapse only at the beginning of the run-out i.e. for t < t_1 ≃ 7.5 (d/g)^0.5\": largest relative spread (max − min)/mean of E_k/E_0 across the {} runs above {} mgd for t ≤ t_1 (bound 5 %; after t_1, up to 3 t_1: {after:.3})", high.len(), p.split_mgd), 0.05, before));
         out.claims.push(Claim::at_least("ek-diverge-after-t1", &format!("fig 4.34: the high-regime E_k/E_0 curves collapse \"only\" before t_1: their largest relative spread over [t_1, 3 t_1] exceeds that over [0, t_1] (ratio ≥ 1; before {before:.3}, after {after:.3})"), 1.0, after / before));
     }
@@ -359,20 +545,46 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         // mean over the runs whose E_ky fell below 1 % of its peak (the others: NaN in `table`)
         let finite_mean = |v: Vec<f64>| -> f64 {
             let f: Vec<f64> = v.into_iter().filter(|x| x.is_finite()).collect();
-            if f.is_empty() { f64::NAN } else { f.iter().sum::<f64>() / f.len() as f64 }
+            if f.is_empty() {
+                f64::NAN
+            } else {
+                f.iter().sum::<f64>() / f.len() as f64
+            }
         };
-        let (t_lo, t_hi) = (finite_mean(low.iter().map(|(_, d)| d.t1_measured).collect()), finite_mean(high.iter().map(|(_, d)| d.t1_measured).collect()));
+        let (t_lo, t_hi) = (
+            finite_mean(low.iter().map(|(_, d)| d.t1_measured).collect()),
+            finite_mean(high.iter().map(|(_, d)| d.t1_measured).collect()),
+        );
         let t_all = finite_mean(der.iter().map(|d| d.t1_measured).collect());
         let ff = der.iter().map(|d| d.t_free_fall).sum::<f64>() / der.len() as f64;
-        out.scalar("t1_measured_low", t_lo).scalar("t1_measured_high", t_hi).scalar("t1_measured_mean", t_all).scalar("t_free_fall", ff);
+        out.scalar("t1_measured_low", t_lo)
+            .scalar("t1_measured_high", t_hi)
+            .scalar("t1_measured_mean", t_all)
+            .scalar("t_free_fall", ff);
         out.claims.push(Claim::rel("t1-both-regimes", &format!("fig 4.37: \"the total duration t_1 of this destabilisation phase is nearly the same in both regimes\": mean measured t_1 (E_ky below 1 % of its peak) above over below {} mgd ({t_hi:.2} / {t_lo:.2} √(d/g); tolerance 25 %, UNSPEC)", p.split_mgd), 1.0, t_hi / t_lo, 0.25));
         out.claims.push(Claim::abs("t1-free-fall", &format!("fig 4.37: \"the total free-fall time for a particle located at this height is ≃ 12 (d/g)^0.5, which is of the same order as t_1\": log2 of the mean measured t_1 ({t_all:.2}) over this pile's free-fall time √(2 H_0/d) = {ff:.2} √(d/g) (same order: within a factor 2)"), 0.0, (t_all / ff).log2(), 1.0));
     }
     if st.decay {
         let inc = increases(high.iter().map(|(_, d)| (d.ekx0, -d.tau)).collect());
         out.claims.push(Claim::at_most("tau-grows", "fig 4.38: \"The plots have seemingly the same aspect but they show different decay times\", τ increasing with E'_kx0: number of adjacent high-regime pairs where τ does not increase", 0.0, inc as f64));
-        let c_tau: Vec<(Vec<f64>, Vec<f64>)> = high.iter().map(|(r, d)| (r.t.iter().map(|t| (t - p.t1) / d.tau).collect(), r.ekx.iter().map(|v| v * r.e0 / d.ekx0).collect())).collect();
-        let c_tp: Vec<(Vec<f64>, Vec<f64>)> = high.iter().map(|(r, d)| (r.t.iter().map(|t| t - p.t1).collect(), r.ekx.iter().map(|v| v * r.e0 / d.ekx0).collect())).collect();
+        let c_tau: Vec<(Vec<f64>, Vec<f64>)> = high
+            .iter()
+            .map(|(r, d)| {
+                (
+                    r.t.iter().map(|t| (t - p.t1) / d.tau).collect(),
+                    r.ekx.iter().map(|v| v * r.e0 / d.ekx0).collect(),
+                )
+            })
+            .collect();
+        let c_tp: Vec<(Vec<f64>, Vec<f64>)> = high
+            .iter()
+            .map(|(r, d)| {
+                (
+                    r.t.iter().map(|t| t - p.t1).collect(),
+                    r.ekx.iter().map(|v| v * r.e0 / d.ekx0).collect(),
+                )
+            })
+            .collect();
         let tau_mean = high.iter().map(|(_, d)| d.tau).sum::<f64>() / high.len().max(1) as f64;
         let s_tau = spread(&c_tau, &grid(0.0, 4.0, 80), false);
         let s_tp = spread(&c_tp, &grid(0.0, 4.0 * tau_mean, 80), false);
@@ -386,24 +598,59 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             }
         }
         let rms_exp = (res.iter().map(|r| r * r).sum::<f64>() / res.len().max(1) as f64).sqrt();
-        out.scalar("decay_spread_t_over_tau", s_tau).scalar("decay_spread_t_prime", s_tp).scalar("decay_exp_rms", rms_exp);
+        out.scalar("decay_spread_t_over_tau", s_tau)
+            .scalar("decay_spread_t_prime", s_tp)
+            .scalar("decay_exp_rms", rms_exp);
         out.claims.push(Claim::at_most("decay-collapse", &format!("fig 4.39: \"now all the data nicely collapse on to a single curve\": largest spread of E_kx/E'_kx0 across the {} high-regime runs at fixed t'/τ ∈ [0, 4] (bound 0.05; against t' unscaled: {s_tp:.3})", high.len()), 0.05, s_tau));
         out.note(format!("fig 4.39: the exponential exp(−ln2 t'/τ) leaves an RMS residual of {rms_exp:.3} on the collapsed curve over t'/τ ∈ [0, 4] (the chapter: \"can not be fitted by simple functional forms such as variants of exponential decay\")."));
         let x: Vec<f64> = high.iter().map(|(_, d)| d.ekx0).collect();
         let tau: Vec<f64> = high.iter().map(|(_, d)| d.tau).collect();
         let tfp: Vec<f64> = high.iter().map(|(_, d)| d.tfp).collect();
         let ratio: Vec<f64> = high.iter().map(|(_, d)| d.tfp / d.tau).collect();
-        let (c1, b2, _) = exponent_claim("beta2-tau", "fig 4.40a: \"τ ∝ (E'_x0)^β'' with β'' ≃ 0.38 ± 0.03\"", 0.38, 0.03, &x, &tau);
-        let (c2, b1, _) = exponent_claim("beta1-tfp", "fig 4.40a: \"t'_f ∝ (E'_x0)^β' has the same exponent β' ≃ 0.33 ± 0.02 as t_f\"", 0.33, 0.02, &x, &tfp);
-        let (c3, bd, _) = exponent_claim("eq4-13-exponent", "eq 4.13 (I10: t'_f/τ = k E'^(β'−β'')): \"β'' − β' ≃ 0.05 ± 0.05\", so the exponent of t'_f/τ against E'_kx0 is −0.05 ± 0.05", -0.05, 0.05, &x, &ratio);
+        let (c1, b2, _) = exponent_claim(
+            "beta2-tau",
+            "fig 4.40a: \"τ ∝ (E'_x0)^β'' with β'' ≃ 0.38 ± 0.03\"",
+            0.38,
+            0.03,
+            &x,
+            &tau,
+        );
+        let (c2, b1, _) = exponent_claim(
+            "beta1-tfp",
+            "fig 4.40a: \"t'_f ∝ (E'_x0)^β' has the same exponent β' ≃ 0.33 ± 0.02 as t_f\"",
+            0.33,
+            0.02,
+            &x,
+            &tfp,
+        );
+        let (c3, bd, _) = exponent_claim(
+            "eq4-13-exponent",
+            "eq 4.13 (I10: t'_f/τ = k E'^(β'−β'')): \"β'' − β' ≃ 0.05 ± 0.05\", so the exponent of t'_f/τ against E'_kx0 is −0.05 ± 0.05",
+            -0.05,
+            0.05,
+            &x,
+            &ratio,
+        );
         out.claims.extend([c1, c2, c3]);
-        let lr: Vec<f64> = ratio.iter().filter(|v| v.is_finite() && **v > 0.0).map(|v| v.ln()).collect();
+        let lr: Vec<f64> = ratio
+            .iter()
+            .filter(|v| v.is_finite() && **v > 0.0)
+            .map(|v| v.ln())
+            .collect();
         let n = lr.len() as f64;
         let m = lr.iter().sum::<f64>() / n.max(1.0);
-        let sd = if n > 1.0 { (lr.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { f64::NAN };
+        let sd = if n > 1.0 {
+            (lr.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+        } else {
+            f64::NAN
+        };
         let k = m.exp();
         let k_se = k * sd / n.sqrt();
-        out.scalar("beta2", b2).scalar("beta1", b1).scalar("eq413_exponent", bd).scalar("k", k).scalar("k_se", k_se);
+        out.scalar("beta2", b2)
+            .scalar("beta1", b1)
+            .scalar("eq413_exponent", bd)
+            .scalar("k", k)
+            .scalar("k_se", k_se);
         out.claims.push(Claim::abs("k", &format!("eq 4.13: \"k ≃ 5.0 ± 0.4\", the exponent neglected as the chapter concludes: k = geometric mean of t'_f/τ over the {} high-regime runs (ours {k:.2} ± {k_se:.2}; tolerance 2 s.e. + 0.4)", lr.len()), 5.0, k, 2.0 * k_se + 0.4));
     }
     if st.ppc {
@@ -416,7 +663,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     Ok(out)
 }
 
-fn lab_index(p: &SeriesParams, key: &str) -> usize { p.labels.iter().position(|l| l == key).expect("validated") }
+fn lab_index(p: &SeriesParams, key: &str) -> usize {
+    p.labels.iter().position(|l| l == key).expect("validated")
+}
 
 /// figs 4.26, 4.29, 4.30: runs grouped by cell size and energy, compared across PPC.
 fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived]) -> anyhow::Result<()> {
@@ -427,7 +676,10 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
     let mut energies: Vec<f64> = runs.iter().map(|r| r.e0).collect();
     energies.sort_by(|a, b| a.total_cmp(b));
     energies.dedup();
-    anyhow::ensure!(energies.len() >= 2, "statements.ppc needs a low and a high energy, got {energies:?}");
+    anyhow::ensure!(
+        energies.len() >= 2,
+        "statements.ppc needs a low and a high energy, got {energies:?}"
+    );
     let (e_lo, e_hi) = (energies[0], *energies.last().unwrap());
     let conv = p.converged_ppc as f64;
     let (mut conv_err, mut tf_err) = (0.0f64, 0.0f64);
@@ -435,7 +687,11 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
     let (mut noise_ratio, mut peak_ratio, mut ekx_diff) = (f64::NAN, f64::NAN, 0.0f64);
     for &h in &cells {
         for &e in &energies {
-            let mut set: Vec<(&Run, &Derived)> = runs.iter().zip(der).filter(|(r, _)| r.labels[ih] == h && r.e0 == e).collect();
+            let mut set: Vec<(&Run, &Derived)> = runs
+                .iter()
+                .zip(der)
+                .filter(|(r, _)| r.labels[ih] == h && r.e0 == e)
+                .collect();
             set.sort_by(|a, b| a.0.labels[ip].total_cmp(&b.0.labels[ip]));
             let Some(&(rr, dr)) = set.last() else { continue };
             if set.len() < 2 {
@@ -453,13 +709,18 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
                 tf_err = tf_err.max((r.tf - rr.tf).abs() / rr.tf);
                 if e == e_lo {
                     let g = grid(0.0, r.tf.min(rr.tf), 100);
-                    ekx_diff = ekx_diff.max(spread(&[(r.t.clone(), r.ekx.clone()), (rr.t.clone(), rr.ekx.clone())], &g, false));
+                    ekx_diff = ekx_diff.max(spread(
+                        &[(r.t.clone(), r.ekx.clone()), (rr.t.clone(), rr.ekx.clone())],
+                        &g,
+                        false,
+                    ));
                 }
             }
             let (r0, d0) = set[0];
             if h == cells[0] && e == e_lo {
                 noise_ratio = d0.eky_hp_rms / dr.eky_hp_rms;
-                out.scalar("eky_hp_rms_low_min_ppc", d0.eky_hp_rms).scalar("eky_hp_rms_low_max_ppc", dr.eky_hp_rms);
+                out.scalar("eky_hp_rms_low_min_ppc", d0.eky_hp_rms)
+                    .scalar("eky_hp_rms_low_max_ppc", dr.eky_hp_rms);
             }
             if h == cells[0] && e == e_hi {
                 let others = set[1..].iter().map(|(_, d)| d.eky_peak).fold(0.0, f64::max);
@@ -474,8 +735,13 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
         v.dedup();
         v
     };
-    let span = format!("PPC {:?}, cells {:?} m, E_0 {e_lo} and {e_hi} mgd; reference: the largest PPC of each mesh", ppcs, cells);
-    out.scalar("ppc_conv_err", conv_err).scalar("ppc_tf_err", tf_err).scalar("ppc_ekx_diff_low", ekx_diff);
+    let span = format!(
+        "PPC {:?}, cells {:?} m, E_0 {e_lo} and {e_hi} mgd; reference: the largest PPC of each mesh",
+        ppcs, cells
+    );
+    out.scalar("ppc_conv_err", conv_err)
+        .scalar("ppc_tf_err", tf_err)
+        .scalar("ppc_ekx_diff_low", ekx_diff);
     out.claims.push(Claim::at_most("ppc-converged", &format!("fig 4.26: \"the run-out distance converges when the number of PPC is more than 25\": largest |ΔL(PPC) − ΔL(ref)|/ΔL(ref) over PPC ≥ {} ({span}; bound 2 %, figures.md)", p.converged_ppc), 0.02, if conv_err > 0.0 || ppcs.iter().filter(|&&q| q >= conv).count() >= 2 { conv_err } else { f64::NAN }));
     out.claims.push(Claim::at_least("ppc-low-longer", &format!("fig 4.26: \"At a low input energy of 50 J, 4 and 16 material points per cell result in a longer run-out distance\": smallest ΔL(PPC)/ΔL(ref) over PPC < {} at {e_lo} mgd ({span})", p.converged_ppc), 1.0, low_longer));
     out.claims.push(Claim::at_least("ppc-high-longer", &format!("fig 4.26: \"at a high input energy of 500 J … the run-out is higher than the run-out predicted with more than 25 material points per cell\": smallest ΔL(PPC)/ΔL(ref) over PPC < {} at {e_hi} mgd ({span})", p.converged_ppc), 1.0, high_longer));
@@ -487,7 +753,12 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
         // mesh: the largest PPC both meshes ran, each energy
         let mut worst = 0.0f64;
         for &e in &energies {
-            let pick = |h: f64| runs.iter().filter(|r| r.labels[ih] == h && r.e0 == e).max_by(|a, b| a.labels[ip].total_cmp(&b.labels[ip])).map(|r| (r.labels[ip], r.dl));
+            let pick = |h: f64| {
+                runs.iter()
+                    .filter(|r| r.labels[ih] == h && r.e0 == e)
+                    .max_by(|a, b| a.labels[ip].total_cmp(&b.labels[ip]))
+                    .map(|r| (r.labels[ip], r.dl))
+            };
             if let (Some((q0, a)), Some((q1, b))) = (pick(cells[0]), pick(cells[1])) {
                 if q0 == q1 {
                     worst = worst.max((b - a).abs() / a);
@@ -512,7 +783,10 @@ fn friction_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Deri
     let get = |mu: f64, e: f64| runs.iter().zip(der).find(|(r, _)| r.labels[im] == mu && r.e0 == e);
     let (mut dl_inc, mut tau_inc) = (0usize, 0usize);
     for &e in &energies {
-        let pts: Vec<(f64, f64, f64)> = mus.iter().filter_map(|&m| get(m, e).map(|(r, d)| (m, r.dl, d.tau))).collect();
+        let pts: Vec<(f64, f64, f64)> = mus
+            .iter()
+            .filter_map(|&m| get(m, e).map(|(r, d)| (m, r.dl, d.tau)))
+            .collect();
         dl_inc += increases(pts.iter().map(|q| (q.0, q.1)).collect());
         tau_inc += increases(pts.iter().map(|q| (q.0, q.2)).collect());
     }
@@ -531,7 +805,11 @@ fn friction_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Deri
             sat.push((tf[0] / tf[1]) / (tf[1] / tf[2]));
         }
     }
-    let mean_ratio = if ratios.is_empty() { f64::NAN } else { ratios.iter().sum::<f64>() / ratios.len() as f64 };
+    let mean_ratio = if ratios.is_empty() {
+        f64::NAN
+    } else {
+        ratios.iter().sum::<f64>() / ratios.len() as f64
+    };
     out.scalar("tf_ratio_01_02", mean_ratio);
     out.claims.push(Claim::abs("friction-tf-factor-4", &format!("§4.4.5: \"The run-out time … is reduced by a factor of approximately 4 as μ_s is increased from 0.1 to 0.2\": mean over E_0 of t_f(0.1)/t_f(0.2) (per E_0: {}; tolerance ±1, UNSPEC)", ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>().join(", ")), 4.0, mean_ratio, 1.0));
     let min_sat = sat.iter().copied().fold(f64::INFINITY, f64::min);
@@ -549,12 +827,28 @@ fn friction_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Deri
         }
     }
     if rows.1.len() >= 2 {
-        let (lo, hi) = rows.1.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(*v), a.1.max(*v)));
-        let (plo, phi) = rows.3.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(*v), a.1.max(*v)));
-        out.scalar("friction_exponent_spread", hi - lo).scalar("friction_prefactor_ratio", phi / plo);
+        let (lo, hi) = rows
+            .1
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(*v), a.1.max(*v)));
+        let (plo, phi) = rows
+            .3
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(*v), a.1.max(*v)));
+        out.scalar("friction_exponent_spread", hi - lo)
+            .scalar("friction_prefactor_ratio", phi / plo);
         out.claims.push(Claim::at_most("friction-exponent-weak", &format!("fig 4.41a: \"The exponent of the power-law relation between the run-out and input energy has a weak dependence on the base friction, however, the proportionality constant is affected\": max − min of the ΔL ∝ E_0^n exponents over μ_s (exponents {}; prefactor max/min {:.2}; bound 0.1, UNSPEC)", rows.1.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(", "), phi / plo), 0.1, hi - lo));
     }
-    out.table("friction_fits", frame(vec![("mpm_base_friction", rows.0), ("exponent", rows.1), ("exponent_se", rows.2), ("prefactor", rows.3), ("points", rows.4)])?);
+    out.table(
+        "friction_fits",
+        frame(vec![
+            ("mpm_base_friction", rows.0),
+            ("exponent", rows.1),
+            ("exponent_se", rows.2),
+            ("prefactor", rows.3),
+            ("points", rows.4),
+        ])?,
+    );
     Ok(())
 }
 
@@ -575,10 +869,32 @@ mod tests {
     fn run_with(e0: f64, tau: f64, t1: f64) -> Run {
         // E_kx = E_0 up to t_1 then exp(−ln2 (t − t_1)/τ): τ is the half-life.
         let t: Vec<f64> = (0..800).map(|k| 0.25 * k as f64).collect();
-        let ekx: Vec<f64> = t.iter().map(|&x| if x < t1 { 1.0 } else { (-(2f64.ln()) * (x - t1) / tau).exp() }).collect();
+        let ekx: Vec<f64> = t
+            .iter()
+            .map(|&x| {
+                if x < t1 {
+                    1.0
+                } else {
+                    (-(2f64.ln()) * (x - t1) / tau).exp()
+                }
+            })
+            .collect();
         let eky: Vec<f64> = t.iter().map(|&x| 0.1 * (-(x - 3.0).powi(2)).exp()).collect();
         let ek: Vec<f64> = ekx.iter().zip(&eky).map(|(a, b)| a + b).collect();
-        Run { labels: vec![], e0, l0: 10.0, dl: 1.0, tf: t1 + 5.0 * tau, h: vec![8.0; t.len()], l: vec![10.0; t.len()], erot: vec![0.0; t.len()], ekx, eky, ek, t }
+        Run {
+            labels: vec![],
+            e0,
+            l0: 10.0,
+            dl: 1.0,
+            tf: t1 + 5.0 * tau,
+            h: vec![8.0; t.len()],
+            l: vec![10.0; t.len()],
+            erot: vec![0.0; t.len()],
+            ekx,
+            eky,
+            ek,
+            t,
+        }
     }
 
     #[test]
@@ -594,10 +910,21 @@ mod tests {
 
     #[test]
     fn collapse_against_t_over_tau_and_not_against_t() {
-        let rs = [run_with(50.0, 5.0, 7.5), run_with(150.0, 10.0, 7.5), run_with(250.0, 15.0, 7.5)];
+        let rs = [
+            run_with(50.0, 5.0, 7.5),
+            run_with(150.0, 10.0, 7.5),
+            run_with(250.0, 15.0, 7.5),
+        ];
         let ds: Vec<Derived> = rs.iter().map(|r| derive(r, 7.5, 1e-3, 5.0)).collect();
-        let scaled: Vec<(Vec<f64>, Vec<f64>)> = rs.iter().zip(&ds).map(|(r, d)| (r.t.iter().map(|t| (t - 7.5) / d.tau).collect(), r.ekx.clone())).collect();
-        let raw: Vec<(Vec<f64>, Vec<f64>)> = rs.iter().map(|r| (r.t.iter().map(|t| t - 7.5).collect(), r.ekx.clone())).collect();
+        let scaled: Vec<(Vec<f64>, Vec<f64>)> = rs
+            .iter()
+            .zip(&ds)
+            .map(|(r, d)| (r.t.iter().map(|t| (t - 7.5) / d.tau).collect(), r.ekx.clone()))
+            .collect();
+        let raw: Vec<(Vec<f64>, Vec<f64>)> = rs
+            .iter()
+            .map(|r| (r.t.iter().map(|t| t - 7.5).collect(), r.ekx.clone()))
+            .collect();
         assert!(spread(&scaled, &grid(0.0, 4.0, 80), false) < 0.01);
         assert!(spread(&raw, &grid(0.0, 40.0, 80), false) > 0.2);
     }

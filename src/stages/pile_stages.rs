@@ -11,7 +11,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
-use crate::analysis::pile::{D_NORM, Frame, FrameTimes, M_NORM, Profile, StopRule, Summary, cavity_area, envelope_packing, slope_deg, summarise, surface_at, surface_profile, wall_gap};
+use crate::analysis::pile::{
+    D_NORM, Frame, FrameTimes, M_NORM, Profile, StopRule, Summary, cavity_area, envelope_packing, slope_deg, summarise,
+    surface_at, surface_profile, wall_gap,
+};
 use crate::cd::CdParams;
 use crate::dem::pile::{PileParams, PileRun, prepare_pile};
 use crate::dem::{DemParams, SizeClasses, State};
@@ -24,7 +27,11 @@ use crate::report::snapshot::{Segment, Shape, Snapshot};
 use crate::validate::{Checker, Issue};
 
 /// Size classes of PSD-PILE (d ∈ [1.964, 2.946] mm) for the DEM pre-flight.
-pub const PILE_SIZES: SizeClasses = SizeClasses { r_min: 0.982e-3, r_mean: 1.2275e-3, r_max: 1.473e-3 };
+pub const PILE_SIZES: SizeClasses = SizeClasses {
+    r_min: 0.982e-3,
+    r_mean: 1.2275e-3,
+    r_max: 1.473e-3,
+};
 
 fn check_dem_pile(p: &DemParams, factor: f64, c: &mut Checker) {
     for i in p.validate() {
@@ -36,12 +43,20 @@ fn check_dem_pile(p: &DemParams, factor: f64, c: &mut Checker) {
     }
     let run = p.softened(factor);
     if let Err(e) = crate::dem::preflight(&run, PILE_SIZES, true, run.dt) {
-        c.fail("dem.dt", format!("{:.3e} s (with stiffness_factor {factor})", run.dt), &format!("a stable step for the pile grains — {e}"));
+        c.fail(
+            "dem.dt",
+            format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
+            &format!("a stable step for the pile grains — {e}"),
+        );
     }
 }
 
 fn explain_pile(v: &serde_json::Value) -> String {
-    let dem: DemParams = v.get("dem").cloned().and_then(|d| serde_json::from_value(d).ok()).unwrap_or_default();
+    let dem: DemParams = v
+        .get("dem")
+        .cloned()
+        .and_then(|d| serde_json::from_value(d).ok())
+        .unwrap_or_default();
     let f = v.get("stiffness_factor").and_then(|x| x.as_f64()).unwrap_or(1.0);
     let run = dem.softened(f);
     let rows = crate::dem::time_scales(&run, PILE_SIZES, true, run.dt);
@@ -72,7 +87,14 @@ pub struct PrepParams {
 
 impl Default for PrepParams {
     fn default() -> Self {
-        PrepParams { dem: DemParams::default(), stiffness_factor: 1.0, grains: 0, pile: Default::default(), slope_window: [0.15, 0.85], slope_calibrated: true }
+        PrepParams {
+            dem: DemParams::default(),
+            stiffness_factor: 1.0,
+            grains: 0,
+            pile: Default::default(),
+            slope_window: [0.15, 0.85],
+            slope_calibrated: true,
+        }
     }
 }
 
@@ -81,15 +103,40 @@ impl Validate for PrepParams {
         let mut c = Checker::new("");
         check_dem_pile(&self.dem, self.stiffness_factor, &mut c);
         c.positive("pile.deposition.width", self.pile.deposition.width);
-        c.check(self.pile.shift_to > 1.0, "pile.shift_to", self.pile.shift_to, "> 1 (a multiple of the box width)");
+        c.check(
+            self.pile.shift_to > 1.0,
+            "pile.shift_to",
+            self.pile.shift_to,
+            "> 1 (a multiple of the box width)",
+        );
         c.positive("pile.max_time", self.pile.max_time);
-        c.check(self.pile.min_time >= 0.0 && self.pile.min_time < self.pile.max_time, "pile.min_time", self.pile.min_time, ">= 0 and < pile.max_time");
+        c.check(
+            self.pile.min_time >= 0.0 && self.pile.min_time < self.pile.max_time,
+            "pile.min_time",
+            self.pile.min_time,
+            ">= 0 and < pile.max_time",
+        );
         // "when all grains come to rest": a looser criterion would hand the excitation a
         // pile still moving.
-        c.check(self.pile.settle_ratio > 0.0 && self.pile.settle_ratio <= 1e-4, "pile.settle_ratio", self.pile.settle_ratio, "in (0, 1e-4]: (E_k + E_rot)/E_p of a pile at rest");
-        c.check(self.pile.settle_speed > 0.0 && self.pile.settle_speed <= 1e-2, "pile.settle_speed", self.pile.settle_speed, "in (0, 0.01] √(g d̄): every grain at rest");
+        c.check(
+            self.pile.settle_ratio > 0.0 && self.pile.settle_ratio <= 1e-4,
+            "pile.settle_ratio",
+            self.pile.settle_ratio,
+            "in (0, 1e-4]: (E_k + E_rot)/E_p of a pile at rest",
+        );
+        c.check(
+            self.pile.settle_speed > 0.0 && self.pile.settle_speed <= 1e-2,
+            "pile.settle_speed",
+            self.pile.settle_speed,
+            "in (0, 0.01] √(g d̄): every grain at rest",
+        );
         let [a, b] = self.slope_window;
-        c.check(a >= 0.0 && b <= 1.0 && a < b, "slope_window", format!("[{a}, {b}]"), "0 <= from < to <= 1 (fractions of L_0)");
+        c.check(
+            a >= 0.0 && b <= 1.0 && a < b,
+            "slope_window",
+            format!("[{a}, {b}]"),
+            "0 <= from < to <= 1 (fractions of L_0)",
+        );
         c.issues
     }
 }
@@ -106,7 +153,11 @@ fn interior_packing(s: &State, prof: &[(f64, f64)], l0: f64, d: f64) -> f64 {
             solid += std::f64::consts::PI * s.r[i] * s.r[i];
         }
     }
-    let area: f64 = prof.iter().filter(|q| q.1.is_finite() && q.0 > 2.0 * d).map(|q| (q.1 - 4.0 * d).max(0.0) * bin).sum();
+    let area: f64 = prof
+        .iter()
+        .filter(|q| q.1.is_finite() && q.0 > 2.0 * d)
+        .map(|q| (q.1 - 4.0 * d).max(0.0) * bin)
+        .sum();
     if area > 0.0 { solid / area } else { f64::NAN }
 }
 
@@ -120,7 +171,13 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
     let psd = ctx.input("psd")?;
     let mut radii: Vec<f64> = col_f64(&psd.table("table")?, "d_m")?.iter().map(|d| 0.5 * d).collect();
     if p.grains > 0 {
-        anyhow::ensure!(p.grains <= radii.len(), "`grains` = {} but the PSD stage `{}` has {} grains", p.grains, psd.id, radii.len());
+        anyhow::ensure!(
+            p.grains <= radii.len(),
+            "`grains` = {} but the PSD stage `{}` has {} grains",
+            p.grains,
+            psd.id,
+            radii.len()
+        );
         radii.truncate(p.grains);
     }
     let clock = std::time::Instant::now();
@@ -130,12 +187,21 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
     let d = D_NORM;
     let bin = 2.0 * d;
     let prof = surface_profile(&s.x, &s.y, &s.r, pile.l0, bin);
-    let solid: f64 = (0..s.len()).filter(|&i| s.x[i] <= pile.l0).map(|i| std::f64::consts::PI * s.r[i] * s.r[i]).sum();
+    let solid: f64 = (0..s.len())
+        .filter(|&i| s.x[i] <= pile.l0)
+        .map(|i| std::f64::consts::PI * s.r[i] * s.r[i])
+        .sum();
     let phi = envelope_packing(&prof, bin, solid);
     let slope = slope_deg(&prof, pile.l0, p.slope_window[0], p.slope_window[1]);
     let mut out = Output::default();
     out.table("table", grains_frame(&s.x, &s.y, &s.r)?);
-    out.table("surface", frame(vec![("x_m", prof.iter().map(|q| q.0).collect()), ("top_m", prof.iter().map(|q| q.1).collect())])?);
+    out.table(
+        "surface",
+        frame(vec![
+            ("x_m", prof.iter().map(|q| q.0).collect()),
+            ("top_m", prof.iter().map(|q| q.1).collect()),
+        ])?,
+    );
     out.scalar("n", s.len() as f64)
         .scalar("l0_m", pile.l0)
         .scalar("h0_m", pile.h0)
@@ -148,12 +214,24 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("ke_over_ep", pile.ke_over_ep)
         .scalar("v_max_over_sqrt_gd", pile.v_max / (run.gravity * d).sqrt())
         .scalar("stiffness_factor", p.stiffness_factor);
-    let mut slope_claim = Claim::abs("slope", "\"A stable granular slope of 13.2° is obtained when all grains come to rest\" (line fit of the top grain per 2d bin over the inclined part)", 13.2, slope, 1.0);
+    let mut slope_claim = Claim::abs(
+        "slope",
+        "\"A stable granular slope of 13.2° is obtained when all grains come to rest\" (line fit of the top grain per 2d bin over the inclined part)",
+        13.2,
+        slope,
+        1.0,
+    );
     if p.slope_calibrated {
         slope_claim = slope_claim.calibrated();
     }
     out.claims.push(slope_claim);
-    out.claims.push(Claim::abs("packing", "\"This procedure leads to a mean packing fraction ≃ 0.82\" (solid area under the free surface, D09)", 0.82, phi, 0.02));
+    out.claims.push(Claim::abs(
+        "packing",
+        "\"This procedure leads to a mean packing fraction ≃ 0.82\" (solid area under the free surface, D09)",
+        0.82,
+        phi,
+        0.02,
+    ));
     // "of the order of 80 d" is the 13 000-grain pile's; a smaller pile (quick profile) is
     // checked against the right triangle of its own solid area at 13.2° and φ = 0.82.
     if s.len() as f64 >= 0.9 * 13000.0 {
@@ -165,9 +243,27 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
     out.scalar("packing_fraction_interior", interior_packing(s, &prof, pile.l0, d));
     out.checks.push(Claim::at_most("at-rest", "pile at rest before the excitation: (E_k+E_rot)/E_p below pile.settle_ratio and every grain below pile.settle_speed √(g d̄) (1 = not settled)", 0.0, if pile.settled { 0.0 } else { 1.0 }));
     let segs = vec![
-        Segment { a: (0.0, 0.0), b: (0.0, 1.15 * pile.h0), color: "black", width: 2.5, dashed: false },
-        Segment { a: (0.0, 0.0), b: (1.05 * pile.l0, 0.0), color: "black", width: 2.5, dashed: false },
-        Segment { a: (0.0, pile.h0), b: (pile.h0 / (13.2f64).to_radians().tan(), 0.0), color: "#b00020", width: 1.2, dashed: true },
+        Segment {
+            a: (0.0, 0.0),
+            b: (0.0, 1.15 * pile.h0),
+            color: "black",
+            width: 2.5,
+            dashed: false,
+        },
+        Segment {
+            a: (0.0, 0.0),
+            b: (1.05 * pile.l0, 0.0),
+            color: "black",
+            width: 2.5,
+            dashed: false,
+        },
+        Segment {
+            a: (0.0, pile.h0),
+            b: (pile.h0 / (13.2f64).to_radians().tan(), 0.0),
+            color: "#b00020",
+            width: 1.2,
+            dashed: true,
+        },
     ];
     let snap = Snapshot {
         title: ctx.caption.clone().unwrap_or_else(|| "Granular pile".into()),
@@ -175,7 +271,12 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
             &ctx.profile,
             &format!(
                 "N = {}, H_0 = {:.1} d, L_0 = {:.1} d, measured slope {:.1}° (red dashed: 13.2° from H_0), φ = {:.3}; k_n × {}",
-                s.len(), pile.h0 / d, pile.l0 / d, slope, phi, p.stiffness_factor
+                s.len(),
+                pile.h0 / d,
+                pile.l0 / d,
+                slope,
+                phi,
+                p.stiffness_factor
             ),
         ),
         x: &s.x,
@@ -322,24 +423,54 @@ impl Validate for RunParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
         if self.energies_mgd.is_empty() {
-            c.fail("energies_mgd", "[]", "a non-empty list of input energies E_0 > 0 [m g d per grain]");
+            c.fail(
+                "energies_mgd",
+                "[]",
+                "a non-empty list of input energies E_0 > 0 [m g d per grain]",
+            );
         }
         for (i, e) in self.energies_mgd.iter().enumerate() {
-            c.check(e.is_finite() && *e > 0.0, &format!("energies_mgd[{i}]"), e, "a finite input energy E_0 > 0 [m g d per grain]");
+            c.check(
+                e.is_finite() && *e > 0.0,
+                &format!("energies_mgd[{i}]"),
+                e,
+                "a finite input energy E_0 > 0 [m g d per grain]",
+            );
         }
         let s = &self.stop;
         c.positive("stop.sample_every", s.sample_every);
         c.non_negative("stop.t_min", s.t_min);
-        c.check(s.t_max.is_finite() && s.t_max > s.t_min.max(crate::analysis::pile::T1_UNITS), "stop.t_max", s.t_max, "> stop.t_min and > t_1 = 7.5 √(d/g)");
+        c.check(
+            s.t_max.is_finite() && s.t_max > s.t_min.max(crate::analysis::pile::T1_UNITS),
+            "stop.t_max",
+            s.t_max,
+            "> stop.t_min and > t_1 = 7.5 √(d/g)",
+        );
         c.positive("stop.ek_ratio", s.ek_ratio);
         c.non_negative("stop.still_time", s.still_time);
         c.positive("stop.still_tol", s.still_tol);
         if let Some(sn) = &self.snapshots {
-            c.check(self.energies_mgd.iter().any(|e| (e - sn.e0_mgd).abs() <= 1e-9 * e.abs()), "snapshots.e0_mgd", sn.e0_mgd, "one of energies_mgd (the run whose frames are taken)");
-            c.check(!sn.times.is_empty(), "snapshots.times", "[]", "a non-empty list of instants [√(d/g)]");
+            c.check(
+                self.energies_mgd
+                    .iter()
+                    .any(|e| (e - sn.e0_mgd).abs() <= 1e-9 * e.abs()),
+                "snapshots.e0_mgd",
+                sn.e0_mgd,
+                "one of energies_mgd (the run whose frames are taken)",
+            );
+            c.check(
+                !sn.times.is_empty(),
+                "snapshots.times",
+                "[]",
+                "a non-empty list of instants [√(d/g)]",
+            );
             for (i, t) in sn.times.iter().enumerate() {
                 let q = t / s.sample_every;
-                let ok = t.is_finite() && *t >= 0.0 && *t <= s.t_max && (q - q.round()).abs() < 1e-9 && (i == 0 || *t > sn.times[i - 1]);
+                let ok = t.is_finite()
+                    && *t >= 0.0
+                    && *t <= s.t_max
+                    && (q - q.round()).abs() < 1e-9
+                    && (i == 0 || *t > sn.times[i - 1]);
                 c.check(ok, &format!("snapshots.times[{i}]"), t, "ascending instants in [0, stop.t_max] √(d/g), multiples of stop.sample_every (frames are taken at sample instants)");
             }
         }
@@ -364,24 +495,56 @@ impl Validate for RunParams {
                         format!("{} m with ppc {} (point spacing {:.2} mm)", self.mpm.cell_size, self.mpm.ppc, sp * 1e3),
                         "a point spacing h/√PPC in [0.2, 3] d̄ = [0.49, 7.4] mm (chapter: spacing ≈ d̄; its PPC study reaches 6.25 mm = 2.55 d̄ at h = 0.0125 m, PPC 4)",
                     );
-                    c.check(self.mpm.ppc <= 100, "mpm.ppc", self.mpm.ppc, "a perfect square in 1..=100 (the chapter's study: 4–100)");
+                    c.check(
+                        self.mpm.ppc <= 100,
+                        "mpm.ppc",
+                        self.mpm.ppc,
+                        "a perfect square in 1..=100 (the chapter's study: 4–100)",
+                    );
                 }
                 if let Some(mu) = self.mpm_friction {
-                    c.check(mu.is_finite() && mu > 0.0 && mu < 2.0, "mpm_friction", mu, "a friction coefficient in (0, 2)");
+                    c.check(
+                        mu.is_finite() && mu > 0.0 && mu < 2.0,
+                        "mpm_friction",
+                        mu,
+                        "a friction coefficient in (0, 2)",
+                    );
                 }
                 if let Some(mu) = self.mpm_base_friction {
-                    c.check(mu.is_finite() && mu > 0.0 && mu <= 1.0, "mpm_base_friction", mu, "a base friction coefficient in (0, 1] (the chapter's sweep: 0.1–0.4)");
+                    c.check(
+                        mu.is_finite() && mu > 0.0 && mu <= 1.0,
+                        "mpm_base_friction",
+                        mu,
+                        "a base friction coefficient in (0, 1] (the chapter's sweep: 0.1–0.4)",
+                    );
                 }
-                c.check(self.mpm_pile.domain_length_l0 > 1.0, "mpm_pile.domain_length_l0", self.mpm_pile.domain_length_l0, "> 1 (the grid must hold the run-out)");
-                c.check(p_ok(self.mpm_link_cells), "mpm_link_cells", self.mpm_link_cells, "0 (D01: 1.5 × point spacing) or a distance in cells in (0, 4]");
-                c.in_open("mpm_pile.geostatic_friction_deg", self.mpm_pile.geostatic_friction_deg, 0.0, 90.0);
+                c.check(
+                    self.mpm_pile.domain_length_l0 > 1.0,
+                    "mpm_pile.domain_length_l0",
+                    self.mpm_pile.domain_length_l0,
+                    "> 1 (the grid must hold the run-out)",
+                );
+                c.check(
+                    p_ok(self.mpm_link_cells),
+                    "mpm_link_cells",
+                    self.mpm_link_cells,
+                    "0 (D01: 1.5 × point spacing) or a distance in cells in (0, 4]",
+                );
+                c.in_open(
+                    "mpm_pile.geostatic_friction_deg",
+                    self.mpm_pile.geostatic_friction_deg,
+                    0.0,
+                    90.0,
+                );
             }
         }
         c.issues
     }
 }
 
-fn p_ok(v: f64) -> bool { v.is_finite() && (0.0..=4.0).contains(&v) }
+fn p_ok(v: f64) -> bool {
+    v.is_finite() && (0.0..=4.0).contains(&v)
+}
 
 struct PileInput {
     state: State,
@@ -406,8 +569,17 @@ fn pile_from(input: &InputRef, density: f64) -> anyhow::Result<PileInput> {
     }
     let sf = input.table("surface")?;
     let profile: Vec<(f64, f64)> = col_f64(&sf, "x_m")?.into_iter().zip(col_f64(&sf, "top_m")?).collect();
-    let get = |k: &str| sc.get(k).copied().ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", input.id));
-    Ok(PileInput { state: s, profile, l0: get("l0_m")?, packing: get("packing_fraction")? })
+    let get = |k: &str| {
+        sc.get(k)
+            .copied()
+            .ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", input.id))
+    };
+    Ok(PileInput {
+        state: s,
+        profile,
+        l0: get("l0_m")?,
+        packing: get("packing_fraction")?,
+    })
 }
 
 fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
@@ -420,8 +592,17 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let pin = ctx.input("pile")?;
     let pile = pile_from(pin, density)?;
     if p.method == Method::Dem {
-        let f = pin.params.get("stiffness_factor").and_then(|v| v.as_f64()).unwrap_or(1.0);
-        anyhow::ensure!(f == p.stiffness_factor, "stiffness_factor {} differs from the pile `{}`'s {f}: the pile was settled with its own contacts; use the same value", p.stiffness_factor, pin.id);
+        let f = pin
+            .params
+            .get("stiffness_factor")
+            .and_then(|v| v.as_f64())
+            .unwrap_or(1.0);
+        anyhow::ensure!(
+            f == p.stiffness_factor,
+            "stiffness_factor {} differs from the pile `{}`'s {f}: the pile was settled with its own contacts; use the same value",
+            p.stiffness_factor,
+            pin.id
+        );
     }
     let g = match p.method {
         Method::Dem => p.dem.gravity,
@@ -461,7 +642,8 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 runs.push(r?);
             }
             if p.method == Method::Dem {
-                out.scalar("stiffness_factor", p.stiffness_factor).scalar("dt_s", run.dt);
+                out.scalar("stiffness_factor", p.stiffness_factor)
+                    .scalar("dt_s", run.dt);
             } else {
                 out.scalar("cd_dt_max_s", p.cd.dt);
             }
@@ -471,7 +653,9 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             let (mu, source) = match (p.mpm_friction, ctx.input_opt("shear")) {
                 (Some(m), _) => (m, "mpm_friction (stated)".to_string()),
                 (None, Some(sh)) => (sh.scalar("mu_min")?, format!("μ_min of the CD shear test `{}`", sh.id)),
-                (None, None) => anyhow::bail!("MPM pile: no friction — give `inputs: {{ shear: shear-cd }}` or `mpm_friction`"),
+                (None, None) => {
+                    anyhow::bail!("MPM pile: no friction — give `inputs: {{ shear: shear-cd }}` or `mpm_friction`")
+                }
             };
             mp.material.friction_deg = mu.atan().to_degrees();
             mp.wall_friction = p.mpm_base_friction.unwrap_or(mu);
@@ -479,10 +663,24 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 mp.material.density = p.grain_density * pile.packing;
             }
             let loaded = crate::mpm::pile::load_pile(&mp, &p.mpm_pile, &pile.profile, pile.l0)?;
-            let cells_high = pile.profile.iter().filter(|q| q.1.is_finite()).map(|q| q.1).fold(0.0, f64::max) / mp.cell_size;
-            anyhow::ensure!(cells_high >= 2.0, "the pile is only {cells_high:.1} cells of mpm.cell_size = {} m high: use smaller cells", mp.cell_size);
+            let cells_high = pile
+                .profile
+                .iter()
+                .filter(|q| q.1.is_finite())
+                .map(|q| q.1)
+                .fold(0.0, f64::max)
+                / mp.cell_size;
+            anyhow::ensure!(
+                cells_high >= 2.0,
+                "the pile is only {cells_high:.1} cells of mpm.cell_size = {} m high: use smaller cells",
+                mp.cell_size
+            );
             let mass: f64 = loaded.state.points.iter().map(|q| q.mass).sum();
-            let link = if p.mpm_link_cells > 0.0 { p.mpm_link_cells * mp.cell_size } else { 1.5 * mp.spacing() };
+            let link = if p.mpm_link_cells > 0.0 {
+                p.mpm_link_cells * mp.cell_size
+            } else {
+                1.5 * mp.spacing()
+            };
             // D21 for MPM: E_0[mgd] = E_0 / (M_total g d).
             let unit = mass * g * D_NORM;
             for (k, &e) in p.energies_mgd.iter().enumerate() {
@@ -499,15 +697,21 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             if let Some(f0) = runs.iter().flat_map(|r| r.1.frames.first()).find(|f| f.t == 0.0) {
                 // fig4-24b: σ_yy after the geostatic stage against the overburden −ρg(h_s(x) − y)
                 // of the seeding surface, over the points deeper than 2 spacings.
-                let (err, n_deep) = lithostatic_misfit(f0, &pile.profile, pile.l0, mp.material.density, g, 2.0 * mp.spacing());
-                out.scalar("snap_sigma_yy_rel_err", err).scalar("snap_sigma_yy_points", n_deep as f64);
+                let (err, n_deep) =
+                    lithostatic_misfit(f0, &pile.profile, pile.l0, mp.material.density, g, 2.0 * mp.spacing());
+                out.scalar("snap_sigma_yy_rel_err", err)
+                    .scalar("snap_sigma_yy_points", n_deep as f64);
                 // Not exact: the frictional wall and base carry part of the weight (column
                 // fig4-04: 2.5 % at the base) and the seeding surface is the grains' rough top.
                 out.checks.push(Claim::at_most("sigma-yy-lithostatic", "fig4-24b: σ_yy after the geostatic stage ≈ −ρg(h_surface(x) − y) (relative L2 misfit over the points > 2 spacings deep; bound 0.2)", 0.2, err));
                 // figures.md fig4-24: "Expected max v_x = kH ≈ 1.1 m/s at the base next to the
                 // wall (triangle estimate)": E_0/(M g d) = (kH)²/(4 g d) for a right triangle.
                 if p.profile == Profile::Gradient {
-                    let e_mgd = runs.iter().find(|r| r.1.frames.first().is_some_and(|f| f.t == 0.0)).map(|r| r.0.e0_mgd).unwrap_or(f64::NAN);
+                    let e_mgd = runs
+                        .iter()
+                        .find(|r| r.1.frames.first().is_some_and(|f| f.t == 0.0))
+                        .map(|r| r.0.e0_mgd)
+                        .unwrap_or(f64::NAN);
                     let kh = (4.0 * g * D_NORM * e_mgd).sqrt();
                     let vmax = f0.vx.iter().cloned().fold(0.0, f64::max);
                     out.scalar("snap_vx_max_m_s", vmax).scalar("snap_vx_triangle_m_s", kh);
@@ -550,39 +754,99 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 8];
     for (s, r, _) in &runs {
         for q in &r.samples {
-            let v = [s.e0_mgd, q.t / tu, q.l / D_NORM, q.h / D_NORM, q.ek / r.e0, q.ekx / r.e0, q.eky / r.e0, q.erot / r.e0];
+            let v = [
+                s.e0_mgd,
+                q.t / tu,
+                q.l / D_NORM,
+                q.h / D_NORM,
+                q.ek / r.e0,
+                q.ekx / r.e0,
+                q.eky / r.e0,
+                q.erot / r.e0,
+            ];
             for (c, x) in cols.iter_mut().zip(v) {
                 c.push(x);
             }
         }
     }
-    let names = ["e0_mgd", "t", "l_d", "h_d", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0"];
+    let names = [
+        "e0_mgd",
+        "t",
+        "l_d",
+        "h_d",
+        "ek_over_e0",
+        "ekx_over_e0",
+        "eky_over_e0",
+        "erot_over_e0",
+    ];
     out.table("series", frame(names.iter().cloned().zip(cols).collect())?);
     if let Some(sn) = &p.snapshots {
         snapshot_outputs(&mut out, &p, sn, &runs, g)?;
     }
-    let worst = runs.iter().map(|(s, _, _)| (s.e0_check - 1.0).abs()).fold(0.0, f64::max);
-    out.checks.push(Claim::at_most("e0-exact", "fig4-24: Σ ½ m v_x² at t = 0 equals E_0 (largest |ratio − 1| over the energies)", 1e-9, worst));
-    let frames_only = |s: &Summary| p.snapshots.as_ref().is_some_and(|sn| sn.end_after_last && (sn.e0_mgd - s.e0_mgd).abs() <= 1e-9 * s.e0_mgd.abs());
+    let worst = runs
+        .iter()
+        .map(|(s, _, _)| (s.e0_check - 1.0).abs())
+        .fold(0.0, f64::max);
+    out.checks.push(Claim::at_most(
+        "e0-exact",
+        "fig4-24: Σ ½ m v_x² at t = 0 equals E_0 (largest |ratio − 1| over the energies)",
+        1e-9,
+        worst,
+    ));
+    let frames_only = |s: &Summary| {
+        p.snapshots
+            .as_ref()
+            .is_some_and(|sn| sn.end_after_last && (sn.e0_mgd - s.e0_mgd).abs() <= 1e-9 * s.e0_mgd.abs())
+    };
     if runs.iter().any(|(s, _, _)| frames_only(s)) {
         out.note("The snapshot run ended at its last frame (snapshots.end_after_last): its row of the table is of a truncated run (stopped = 0), not a run-out.".to_string());
     }
-    let unstopped = runs.iter().filter(|(s, _, _)| s.stopped == 0.0 && !frames_only(s)).count();
-    out.checks.push(Claim::at_most("stopped", "every run met the stopping rule before stop.t_max (number that did not)", 0.0, unstopped as f64));
-    out.scalar("runs", runs.len() as f64).scalar("method_code", p.method as u8 as f64);
-    out.note(format!("Wall time per energy [s]: {}.", runs.iter().map(|r| format!("{:.1}", r.2)).collect::<Vec<_>>().join(", ")));
+    let unstopped = runs
+        .iter()
+        .filter(|(s, _, _)| s.stopped == 0.0 && !frames_only(s))
+        .count();
+    out.checks.push(Claim::at_most(
+        "stopped",
+        "every run met the stopping rule before stop.t_max (number that did not)",
+        0.0,
+        unstopped as f64,
+    ));
+    out.scalar("runs", runs.len() as f64)
+        .scalar("method_code", p.method as u8 as f64);
+    out.note(format!(
+        "Wall time per energy [s]: {}.",
+        runs.iter()
+            .map(|r| format!("{:.1}", r.2))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
     // E_k/E_0 against t (figs 4.34b, 4.35).
     let series: Vec<Series> = runs
         .iter()
         .enumerate()
         .map(|(k, (s, r, _))| {
-            let pts: Vec<(f64, f64)> = r.samples.iter().filter(|q| q.ek > 0.0).map(|q| (q.t / tu, (q.ek / r.e0).max(1e-6))).collect();
+            let pts: Vec<(f64, f64)> = r
+                .samples
+                .iter()
+                .filter(|q| q.ek > 0.0)
+                .map(|q| (q.t / tu, (q.ek / r.e0).max(1e-6)))
+                .collect();
             Series::new(format!("E_0 = {:.3} mgd", s.e0_mgd), Style::Line, pts, k)
         })
         .collect();
     let chart = Chart {
-        title: format!("{} pile, {} excitation: E_k/E_0 against t", p.method.label(), p.profile.name()),
-        footer: footer(&ctx.profile, &format!("N = {} grains of the DEM deposit; E_0 per grain in m g d (D21)", pile.state.len())),
+        title: format!(
+            "{} pile, {} excitation: E_k/E_0 against t",
+            p.method.label(),
+            p.profile.name()
+        ),
+        footer: footer(
+            &ctx.profile,
+            &format!(
+                "N = {} grains of the DEM deposit; E_0 per grain in m g d (D21)",
+                pile.state.len()
+            ),
+        ),
         x_label: "t / √(d/g)".into(),
         y_label: "E_k / E_0".into(),
         y_log: true,
@@ -602,7 +866,10 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Frame instants [s] of the run at `e` [mgd] (none unless it is the snapshot run).
 fn frame_times(p: &RunParams, e: f64, g: f64) -> FrameTimes {
     match &p.snapshots {
-        Some(sn) if (sn.e0_mgd - e).abs() <= 1e-9 * e.abs() => FrameTimes { times: sn.times.iter().map(|t| t * (D_NORM / g).sqrt()).collect(), end_after_last: sn.end_after_last },
+        Some(sn) if (sn.e0_mgd - e).abs() <= 1e-9 * e.abs() => FrameTimes {
+            times: sn.times.iter().map(|t| t * (D_NORM / g).sqrt()).collect(),
+            end_after_last: sn.end_after_last,
+        },
         _ => FrameTimes::default(),
     }
 }
@@ -625,23 +892,52 @@ fn lithostatic_misfit(f: &Frame, profile: &[(f64, f64)], l0: f64, rho: f64, g: f
 /// The snapshot run's frames (`snapshots` table, the `snapshot` kind's schema with time in
 /// √(d/g)), per-frame front, cavity and wall gap (`snapshot_metrics`), and the chapter's
 /// statements on the cavity and the left wall (figs 4.31, 4.32, 4.42, 4.43).
-fn snapshot_outputs(out: &mut Output, p: &RunParams, sn: &SnapSpec, runs: &[(Summary, PileRun, f64)], g: f64) -> anyhow::Result<()> {
+fn snapshot_outputs(
+    out: &mut Output,
+    p: &RunParams,
+    sn: &SnapSpec,
+    runs: &[(Summary, PileRun, f64)],
+    g: f64,
+) -> anyhow::Result<()> {
     let tu = (D_NORM / g).sqrt();
-    let Some((_, r, _)) = runs.iter().find(|(s, _, _)| (s.e0_mgd - sn.e0_mgd).abs() <= 1e-9 * sn.e0_mgd.abs()) else {
+    let Some((_, r, _)) = runs
+        .iter()
+        .find(|(s, _, _)| (s.e0_mgd - sn.e0_mgd).abs() <= 1e-9 * sn.e0_mgd.abs())
+    else {
         anyhow::bail!("snapshots.e0_mgd = {} matches no run", sn.e0_mgd)
     };
-    anyhow::ensure!(r.frames.len() == sn.times.len(), "the {} mgd run took {} of {} frames (it ended at {:.1} √(d/g))", sn.e0_mgd, r.frames.len(), sn.times.len(), r.samples.last().map(|q| q.t / tu).unwrap_or(0.0));
-    out.table("snapshots", super::snapshot::frame_rows(&r.frames, "t_over_sqrt_d_g", tu)?);
+    anyhow::ensure!(
+        r.frames.len() == sn.times.len(),
+        "the {} mgd run took {} of {} frames (it ended at {:.1} √(d/g))",
+        sn.e0_mgd,
+        r.frames.len(),
+        sn.times.len(),
+        r.samples.last().map(|q| q.t / tu).unwrap_or(0.0)
+    );
+    out.table(
+        "snapshots",
+        super::snapshot::frame_rows(&r.frames, "t_over_sqrt_d_g", tu)?,
+    );
     let d = D_NORM;
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 5];
     for (k, f) in r.frames.iter().enumerate() {
-        let l = r.samples.iter().min_by(|a, b| (a.t - f.t).abs().total_cmp(&(b.t - f.t).abs())).map(|q| q.l).unwrap_or(f64::NAN);
+        let l = r
+            .samples
+            .iter()
+            .min_by(|a, b| (a.t - f.t).abs().total_cmp(&(b.t - f.t).abs()))
+            .map(|q| q.l)
+            .unwrap_or(f64::NAN);
         // over every body (the linked front of a thinning grain layer jumps; the cavity is
         // left of the highest point, which a far grain does not move)
         let reach = f.x.iter().zip(&f.half).map(|(x, h)| x + h).fold(0.0, f64::max);
         // MPM: points are one continuum while they share grid nodes (mpm_link_cells, as the front)
         let extra = match p.method {
-            Method::Mpm => (if p.mpm_link_cells > 0.0 { p.mpm_link_cells * p.mpm.cell_size } else { 1.5 * p.mpm.spacing() } - 2.0 * f.half.first().copied().unwrap_or(0.0)).max(0.0),
+            Method::Mpm => (if p.mpm_link_cells > 0.0 {
+                p.mpm_link_cells * p.mpm.cell_size
+            } else {
+                1.5 * p.mpm.spacing()
+            } - 2.0 * f.half.first().copied().unwrap_or(0.0))
+            .max(0.0),
             _ => 0.0,
         };
         let cav = cavity_area(&f.x, &f.y, &f.half, reach, 2.0 * d, extra) / (d * d);
@@ -657,8 +953,16 @@ fn snapshot_outputs(out: &mut Output, p: &RunParams, sn: &SnapSpec, runs: &[(Sum
     let last = *cav.last().unwrap_or(&f64::NAN);
     let worst_gap = gap.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let fill = if peak > 0.0 { last / peak } else { f64::NAN };
-    out.scalar("snap_e0_mgd", sn.e0_mgd).scalar("snap_cavity_peak_d2", peak).scalar("snap_cavity_last_d2", last).scalar("snap_cavity_last_over_peak", fill).scalar("snap_wall_gap_max_d", worst_gap);
-    let span = format!("frames at {} √(d/g), E_0 = {} mgd", sn.times.iter().map(|t| format!("{t}")).collect::<Vec<_>>().join(", "), sn.e0_mgd);
+    out.scalar("snap_e0_mgd", sn.e0_mgd)
+        .scalar("snap_cavity_peak_d2", peak)
+        .scalar("snap_cavity_last_d2", last)
+        .scalar("snap_cavity_last_over_peak", fill)
+        .scalar("snap_wall_gap_max_d", worst_gap);
+    let span = format!(
+        "frames at {} √(d/g), E_0 = {} mgd",
+        sn.times.iter().map(|t| format!("{t}")).collect::<Vec<_>>().join(", "),
+        sn.e0_mgd
+    );
     // The chapter's statements are about the sequence: a single frame (fig4-24's t = 0) decides none.
     if r.frames.len() < 3 {
         return Ok(());
@@ -667,7 +971,11 @@ fn snapshot_outputs(out: &mut Output, p: &RunParams, sn: &SnapSpec, runs: &[(Sum
         Profile::Gradient => {
             // In contact: a grain within half a diameter of the wall; for MPM, material in the
             // wall's grid cell (the wall is a node line: the continuum meets it there).
-            let eps = if p.method == Method::Mpm { p.mpm.cell_size / D_NORM } else { 0.5 };
+            let eps = if p.method == Method::Mpm {
+                p.mpm.cell_size / D_NORM
+            } else {
+                0.5
+            };
             out.claims.push(Claim::at_most("wall-contact", &format!("\"the granular heap remains in contact with the left wall irrespective of the input energy\": largest over the frames of the smallest body–wall gap min(x − half), in d ({span}; bound {eps:.2} d: {})", if p.method == Method::Mpm { "one grid cell" } else { "half a grain" }), eps, worst_gap));
             out.claims.push(Claim::at_most("cavity-partly-filled", &format!("\"This cavity gets partially filled as the granular mass at the top collapse behind the flowing mass\": cavity area at the last frame over its peak (cavity: the dent left of the highest point under the surface seen from the right, 2 d bins; {span}; bound 0.9)"), 0.9, fill));
         }
@@ -700,13 +1008,20 @@ pub struct RunoutParams {
 }
 
 impl Default for RunoutParams {
-    fn default() -> Self { RunoutParams { split_mgd: 40.0 } }
+    fn default() -> Self {
+        RunoutParams { split_mgd: 40.0 }
+    }
 }
 
 impl Validate for RunoutParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(self.split_mgd.is_finite() && self.split_mgd > 0.0, "split_mgd", self.split_mgd, "a finite energy > 0 [mgd]");
+        c.check(
+            self.split_mgd.is_finite() && self.split_mgd > 0.0,
+            "split_mgd",
+            self.split_mgd,
+            "a finite energy > 0 [mgd]",
+        );
         c.issues
     }
 }
@@ -720,15 +1035,44 @@ struct MethodData {
     vs: Vec<f64>,
 }
 
-fn fit_row(rows: &mut Vec<(String, String, String, f64, f64, f64, usize)>, m: Method, qty: &str, which: &str, f: &PowerFit) {
-    rows.push((m.label().into(), qty.into(), which.into(), f.exponent, f.exponent_se, f.prefactor, f.n));
+fn fit_row(
+    rows: &mut Vec<(String, String, String, f64, f64, f64, usize)>,
+    m: Method,
+    qty: &str,
+    which: &str,
+    f: &PowerFit,
+) {
+    rows.push((
+        m.label().into(),
+        qty.into(),
+        which.into(),
+        f.exponent,
+        f.exponent_se,
+        f.prefactor,
+        f.n,
+    ));
 }
 
 /// Claim with tolerance 2 × our standard error + the chapter's ± (as `power-law-fit`).
 fn exponent_claim(id: &str, statement: &str, paper: f64, paper_se: f64, f: Option<&PowerFit>) -> Claim {
     match f {
-        Some(f) => Claim::abs(id, &format!("{statement} (ours {:.3} ± {:.3}; tolerance 2 s.e. + the chapter's ±)", f.exponent, f.exponent_se), paper, f.exponent, 2.0 * f.exponent_se + paper_se),
-        None => Claim::abs(id, &format!("{statement} (too few points to fit)"), paper, f64::NAN, paper_se),
+        Some(f) => Claim::abs(
+            id,
+            &format!(
+                "{statement} (ours {:.3} ± {:.3}; tolerance 2 s.e. + the chapter's ±)",
+                f.exponent, f.exponent_se
+            ),
+            paper,
+            f.exponent,
+            2.0 * f.exponent_se + paper_se,
+        ),
+        None => Claim::abs(
+            id,
+            &format!("{statement} (too few points to fit)"),
+            paper,
+            f64::NAN,
+            paper_se,
+        ),
     }
 }
 
@@ -736,9 +1080,17 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: RunoutParams = decode(ctx)?;
     let mut data = Vec::new();
     for inp in ctx.inputs_of("runs") {
-        let method: Method = serde_json::from_value(inp.params.get("method").cloned().unwrap_or_default()).map_err(|e| anyhow::anyhow!("input `{}` is not a pile-run: {e}", inp.id))?;
+        let method: Method = serde_json::from_value(inp.params.get("method").cloned().unwrap_or_default())
+            .map_err(|e| anyhow::anyhow!("input `{}` is not a pile-run: {e}", inp.id))?;
         let df = inp.table("table")?;
-        data.push(MethodData { method, e: col_f64(&df, "e0_mgd")?, dl: col_f64(&df, "dl")?, lf: col_f64(&df, "lf_d")?, tf: col_f64(&df, "tf")?, vs: col_f64(&df, "vs")? });
+        data.push(MethodData {
+            method,
+            e: col_f64(&df, "e0_mgd")?,
+            dl: col_f64(&df, "dl")?,
+            lf: col_f64(&df, "lf_d")?,
+            tf: col_f64(&df, "tf")?,
+            vs: col_f64(&df, "vs")?,
+        });
     }
     let split = p.split_mgd;
     let mut rows = Vec::new();
@@ -762,8 +1114,20 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
             }
         }
         if let Some(t) = fitted(&d.dl) {
-            fit_row(&mut rows, m, "dl", &format!("below fitted break {:.1} mgd", t.break_x), &t.low);
-            fit_row(&mut rows, m, "dl", &format!("above fitted break {:.1} mgd", t.break_x), &t.high);
+            fit_row(
+                &mut rows,
+                m,
+                "dl",
+                &format!("below fitted break {:.1} mgd", t.break_x),
+                &t.low,
+            );
+            fit_row(
+                &mut rows,
+                m,
+                "dl",
+                &format!("above fitted break {:.1} mgd", t.break_x),
+                &t.high,
+            );
             lo_hi.2 = Some(t.break_x);
             out.scalar(&format!("{}_dl_break_mgd", m.label().to_lowercase()), t.break_x);
         }
@@ -792,16 +1156,42 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
             }
         }
         if m == Method::Dem {
-            let low: Vec<f64> = d.e.iter().zip(&d.tf).filter(|(e, _)| **e <= split).map(|(_, t)| *t).collect();
+            let low: Vec<f64> =
+                d.e.iter()
+                    .zip(&d.tf)
+                    .filter(|(e, _)| **e <= split)
+                    .map(|(_, t)| *t)
+                    .collect();
             let mean = low.iter().sum::<f64>() / low.len().max(1) as f64;
-            let spread = low.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - low.iter().cloned().fold(f64::INFINITY, f64::min);
-            out.scalar("dem_tf_low_mean", mean).scalar("dem_tf_low_spread", spread).scalar("split_mgd", split);
+            let spread = low.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                - low.iter().cloned().fold(f64::INFINITY, f64::min);
+            out.scalar("dem_tf_low_mean", mean)
+                .scalar("dem_tf_low_spread", spread)
+                .scalar("split_mgd", split);
             out.claims.push(Claim::rel("dem-tf-flat", "\"the DEM simulations show that the flow duration remains constant at a value t_f ≃ 60 (d/g)^0.5 irrespective of the value of E_0\" (mean t_f of the DEM runs below 40 mgd; tolerance 15 %)", 60.0, mean, 0.15));
         }
     }
-    out.claims.push(exponent_claim("alpha-lf", "DEM total L_f ∝ E_0^α below 40 mgd (the text's literal L_f, I9): 0.206 ± 0.012", 0.206, 0.012, dem_fits.get("lf_low")));
-    out.claims.push(exponent_claim("vs-low", "DEM v_s ∝ E_0^0.52 below 40 mgd: \"v_s ∝ (E_0)^{0.52 ± 0.012}\"", 0.52, 0.012, dem_fits.get("vs_low")));
-    out.claims.push(exponent_claim("vs-high", "DEM v_s ∝ E_0^0.498 above 40 mgd: \"v_s ∝ (E_0)^{0.498 ± 0.01}\"", 0.498, 0.01, dem_fits.get("vs_high")));
+    out.claims.push(exponent_claim(
+        "alpha-lf",
+        "DEM total L_f ∝ E_0^α below 40 mgd (the text's literal L_f, I9): 0.206 ± 0.012",
+        0.206,
+        0.012,
+        dem_fits.get("lf_low"),
+    ));
+    out.claims.push(exponent_claim(
+        "vs-low",
+        "DEM v_s ∝ E_0^0.52 below 40 mgd: \"v_s ∝ (E_0)^{0.52 ± 0.012}\"",
+        0.52,
+        0.012,
+        dem_fits.get("vs_low"),
+    ));
+    out.claims.push(exponent_claim(
+        "vs-high",
+        "DEM v_s ∝ E_0^0.498 above 40 mgd: \"v_s ∝ (E_0)^{0.498 ± 0.01}\"",
+        0.498,
+        0.01,
+        dem_fits.get("vs_high"),
+    ));
     out.table(
         "table",
         polars::prelude::DataFrame::new_infer_height(vec![
@@ -819,49 +1209,138 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut sb = Vec::new();
     for d in &data {
         let m = d.method;
-        sa.push(Series::new(m.label(), Style::Points, d.e.iter().cloned().zip(d.dl.iter().cloned()).collect(), m.color()));
-        sb.push(Series::new(m.label(), Style::Points, d.e.iter().cloned().zip(d.tf.iter().cloned()).collect(), m.color()));
+        sa.push(Series::new(
+            m.label(),
+            Style::Points,
+            d.e.iter().cloned().zip(d.dl.iter().cloned()).collect(),
+            m.color(),
+        ));
+        sb.push(Series::new(
+            m.label(),
+            Style::Points,
+            d.e.iter().cloned().zip(d.tf.iter().cloned()).collect(),
+            m.color(),
+        ));
     }
-    let line = |f: &PowerFit, x0: f64, x1: f64| -> Vec<(f64, f64)> { (0..=20).map(|k| x0 * (x1 / x0).powf(k as f64 / 20.0)).map(|x| (x, f.eval(x))).collect() };
+    let line = |f: &PowerFit, x0: f64, x1: f64| -> Vec<(f64, f64)> {
+        (0..=20)
+            .map(|k| x0 * (x1 / x0).powf(k as f64 / 20.0))
+            .map(|x| (x, f.eval(x)))
+            .collect()
+    };
     for (m, lo, hi, _) in &fit_dl {
         if let Some(f) = lo {
-            sa.push(Series::new(format!("fit {}: α = {:.3} ± {:.3}", m.label(), f.exponent, f.exponent_se), Style::Dashed, line(f, f.x_min, f.x_max), m.color()));
+            sa.push(Series::new(
+                format!("fit {}: α = {:.3} ± {:.3}", m.label(), f.exponent, f.exponent_se),
+                Style::Dashed,
+                line(f, f.x_min, f.x_max),
+                m.color(),
+            ));
         }
         if let Some(f) = hi {
-            sa.push(Series::new(format!("fit {}: α' = {:.3} ± {:.3}", m.label(), f.exponent, f.exponent_se), Style::Dashed, line(f, f.x_min, f.x_max), m.color()));
+            sa.push(Series::new(
+                format!("fit {}: α' = {:.3} ± {:.3}", m.label(), f.exponent, f.exponent_se),
+                Style::Dashed,
+                line(f, f.x_min, f.x_max),
+                m.color(),
+            ));
         }
     }
     // The chapter's exponents as stated laws, anchored at the DEM data's geometric mean of
     // each regime (only the exponent is stated; the prefactor is not).
     if let Some(d) = data.iter().find(|d| d.method == Method::Dem) {
-        for (lo_side, expo, lab) in [(true, 0.206, "stated law: α = 0.206 (E_0 < 40)"), (false, 0.56, "stated law: α' = 0.56 (E_0 > 40)")] {
-            let pts: Vec<(f64, f64)> = d.e.iter().cloned().zip(d.dl.iter().cloned()).filter(|(e, y)| (*e <= split) == lo_side && *y > 0.0).collect();
+        for (lo_side, expo, lab) in [
+            (true, 0.206, "stated law: α = 0.206 (E_0 < 40)"),
+            (false, 0.56, "stated law: α' = 0.56 (E_0 > 40)"),
+        ] {
+            let pts: Vec<(f64, f64)> =
+                d.e.iter()
+                    .cloned()
+                    .zip(d.dl.iter().cloned())
+                    .filter(|(e, y)| (*e <= split) == lo_side && *y > 0.0)
+                    .collect();
             if pts.len() >= 2 {
                 let lx = pts.iter().map(|p| p.0.ln()).sum::<f64>() / pts.len() as f64;
                 let ly = pts.iter().map(|p| p.1.ln()).sum::<f64>() / pts.len() as f64;
                 let c = (ly - expo * lx).exp();
-                let (x0, x1) = if lo_side { (pts[0].0, split) } else { (split, pts[pts.len() - 1].0) };
-                sa.push(Series::new(lab, Style::Dashed, (0..=10).map(|k| x0 * (x1 / x0).powf(k as f64 / 10.0)).map(|x| (x, c * x.powf(expo))).collect(), 7));
+                let (x0, x1) = if lo_side {
+                    (pts[0].0, split)
+                } else {
+                    (split, pts[pts.len() - 1].0)
+                };
+                sa.push(Series::new(
+                    lab,
+                    Style::Dashed,
+                    (0..=10)
+                        .map(|k| x0 * (x1 / x0).powf(k as f64 / 10.0))
+                        .map(|x| (x, c * x.powf(expo)))
+                        .collect(),
+                    7,
+                ));
             }
         }
         if let Some(f) = &dem_tf_high {
-            sb.push(Series::new(format!("fit DEM: β' = {:.3} ± {:.3}", f.exponent, f.exponent_se), Style::Dashed, line(f, f.x_min, f.x_max), 0));
+            sb.push(Series::new(
+                format!("fit DEM: β' = {:.3} ± {:.3}", f.exponent, f.exponent_se),
+                Style::Dashed,
+                line(f, f.x_min, f.x_max),
+                0,
+            ));
         }
         let emin = d.e.iter().cloned().fold(f64::INFINITY, f64::min);
         let emax = d.e.iter().cloned().fold(0.0, f64::max);
-        sb.push(Series::new("stated: t_f ≃ 60 (DEM, E_0 < 40)", Style::Dashed, vec![(emin, 60.0), (split, 60.0)], 7));
-        let pts: Vec<(f64, f64)> = d.e.iter().cloned().zip(d.tf.iter().cloned()).filter(|(e, y)| *e > split && *y > 0.0).collect();
+        sb.push(Series::new(
+            "stated: t_f ≃ 60 (DEM, E_0 < 40)",
+            Style::Dashed,
+            vec![(emin, 60.0), (split, 60.0)],
+            7,
+        ));
+        let pts: Vec<(f64, f64)> =
+            d.e.iter()
+                .cloned()
+                .zip(d.tf.iter().cloned())
+                .filter(|(e, y)| *e > split && *y > 0.0)
+                .collect();
         if pts.len() >= 2 {
             let lx = pts.iter().map(|p| p.0.ln()).sum::<f64>() / pts.len() as f64;
             let ly = pts.iter().map(|p| p.1.ln()).sum::<f64>() / pts.len() as f64;
             let c = (ly - 0.33 * lx).exp();
-            sb.push(Series::new("stated law: β' = 0.33 (E_0 > 40)", Style::Dashed, (0..=10).map(|k| split * (emax / split).powf(k as f64 / 10.0)).map(|x| (x, c * x.powf(0.33))).collect(), 6));
+            sb.push(Series::new(
+                "stated law: β' = 0.33 (E_0 > 40)",
+                Style::Dashed,
+                (0..=10)
+                    .map(|k| split * (emax / split).powf(k as f64 / 10.0))
+                    .map(|x| (x, c * x.powf(0.33)))
+                    .collect(),
+                6,
+            ));
         }
     }
-    let foot = footer(&ctx.profile, "fits: OLS of log ΔL on log E_0 each side of 40 mgd, ± 1 s.e.; dashed black: the chapter's exponents (prefactor anchored to our DEM points)");
-    let title = ctx.caption.clone().unwrap_or_else(|| "Pile run-out against input energy".into());
-    let ca = Chart::log_log(format!("{title} — (a) run-out"), foot.clone(), "E_0 / (m g d) per grain", "(L_f − L_0) / L_0", sa);
-    let cb = Chart { legend: Legend::UpperLeft, ..Chart::log_log(format!("{title} — (b) duration"), foot, "E_0 / (m g d) per grain", "t_f / √(d/g)", sb) };
+    let foot = footer(
+        &ctx.profile,
+        "fits: OLS of log ΔL on log E_0 each side of 40 mgd, ± 1 s.e.; dashed black: the chapter's exponents (prefactor anchored to our DEM points)",
+    );
+    let title = ctx
+        .caption
+        .clone()
+        .unwrap_or_else(|| "Pile run-out against input energy".into());
+    let ca = Chart::log_log(
+        format!("{title} — (a) run-out"),
+        foot.clone(),
+        "E_0 / (m g d) per grain",
+        "(L_f − L_0) / L_0",
+        sa,
+    );
+    let cb = Chart {
+        legend: Legend::UpperLeft,
+        ..Chart::log_log(
+            format!("{title} — (b) duration"),
+            foot,
+            "E_0 / (m g d) per grain",
+            "t_f / √(d/g)",
+            sb,
+        )
+    };
     out.figure("figure", ca.to_svg()?);
     out.figure("duration", cb.to_svg()?);
     out.note("β' = 0.33 is the text's value; it may not follow from the chapter's own plotted points (issue 11): ours is computed, not tuned toward either.".to_string());

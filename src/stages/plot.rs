@@ -227,7 +227,12 @@ impl PlotParams {
 impl Validate for PlotParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(!self.panels.is_empty() && self.panels.len() <= 12, "panels", self.panels.len(), "1 to 12 panels");
+        c.check(
+            !self.panels.is_empty() && self.panels.len() <= 12,
+            "panels",
+            self.panels.len(),
+            "1 to 12 panels",
+        );
         if let Some(n) = self.columns {
             c.check((1..=4).contains(&n), "columns", n, "1 to 4 panels per row");
         }
@@ -235,25 +240,72 @@ impl Validate for PlotParams {
             for (ax, a) in [("x", &p.x), ("y", &p.y)] {
                 if let Some([lo, hi]) = a.range {
                     let key = format!("panels[{i}].{ax}.range");
-                    c.check(lo.is_finite() && hi.is_finite() && hi > lo && (!a.log || lo > 0.0), &key, format!("[{lo}, {hi}]"), "[lo, hi] with lo < hi (lo > 0 on a log axis)");
+                    c.check(
+                        lo.is_finite() && hi.is_finite() && hi > lo && (!a.log || lo > 0.0),
+                        &key,
+                        format!("[{lo}, {hi}]"),
+                        "[lo, hi] with lo < hi (lo > 0 on a log axis)",
+                    );
                 }
             }
-            c.check(!p.series.is_empty() || !p.fits.is_empty() || !p.laws.is_empty(), &format!("panels[{i}]"), "empty", "at least one series, fit or law");
+            c.check(
+                !p.series.is_empty() || !p.fits.is_empty() || !p.laws.is_empty(),
+                &format!("panels[{i}]"),
+                "empty",
+                "at least one series, fit or law",
+            );
             for (j, s) in p.series.iter().enumerate() {
                 let key = format!("panels[{i}].series[{j}]");
-                c.check(s.x_scale.is_finite() && s.x_scale != 0.0, &format!("{key}.x_scale"), s.x_scale, "a finite non-zero factor");
-                c.check(s.y_scale.is_finite() && s.y_scale != 0.0, &format!("{key}.y_scale"), s.y_scale, "a finite non-zero factor");
-                c.check(!(s.source == Source::Scalars && s.y_div_initial.is_some()), &format!("{key}.y_div_initial"), "with source: scalars", "a table source (scalars have no first row)");
-                c.check(!(s.source == Source::Scalars && s.group.is_some()), &format!("{key}.group"), "with source: scalars", "a table source (one series per distinct value of a column)");
+                c.check(
+                    s.x_scale.is_finite() && s.x_scale != 0.0,
+                    &format!("{key}.x_scale"),
+                    s.x_scale,
+                    "a finite non-zero factor",
+                );
+                c.check(
+                    s.y_scale.is_finite() && s.y_scale != 0.0,
+                    &format!("{key}.y_scale"),
+                    s.y_scale,
+                    "a finite non-zero factor",
+                );
+                c.check(
+                    !(s.source == Source::Scalars && s.y_div_initial.is_some()),
+                    &format!("{key}.y_div_initial"),
+                    "with source: scalars",
+                    "a table source (scalars have no first row)",
+                );
+                c.check(
+                    !(s.source == Source::Scalars && s.group.is_some()),
+                    &format!("{key}.group"),
+                    "with source: scalars",
+                    "a table source (one series per distinct value of a column)",
+                );
                 for (k, v) in &s.filter {
-                    c.check(v.is_number() || v.is_string() || v.is_boolean(), &format!("{key}.filter.{k}"), v, "a number, string or boolean");
+                    c.check(
+                        v.is_number() || v.is_string() || v.is_boolean(),
+                        &format!("{key}.filter.{k}"),
+                        v,
+                        "a number, string or boolean",
+                    );
                 }
             }
             for l in &p.laws {
-                c.check(super::laws::eval(l, 1.0).is_some(), &format!("panels[{i}].laws"), l, &format!("one of {}", super::laws::LAWS.iter().map(|l| l.0).collect::<Vec<_>>().join(", ")));
+                c.check(
+                    super::laws::eval(l, 1.0).is_some(),
+                    &format!("panels[{i}].laws"),
+                    l,
+                    &format!(
+                        "one of {}",
+                        super::laws::LAWS.iter().map(|l| l.0).collect::<Vec<_>>().join(", ")
+                    ),
+                );
             }
             if !p.laws.is_empty() && self.laws_from.is_none() {
-                c.fail("laws_from", "missing", "the role of the `reference-laws` stage, e.g. `laws_from: laws` with `inputs: { laws: laws }`");
+                c.fail(
+                    "laws_from",
+                    "missing",
+                    "the role of the `reference-laws` stage, e.g. `laws_from: laws` with `inputs: { laws: laws }`",
+                );
             }
         }
         c.issues
@@ -275,7 +327,9 @@ fn table_points(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Vec<(f64, f64,
     let n = df.height();
     let mut keep = vec![true; n];
     for (col, want) in &s.filter {
-        let c = df.column(col).map_err(|_| anyhow!("input `{}` table `{}` has no column `{col}` (filter)", inp.id, s.table))?;
+        let c = df
+            .column(col)
+            .map_err(|_| anyhow!("input `{}` table `{}` has no column `{col}` (filter)", inp.id, s.table))?;
         if let (DataType::String, Some(w)) = (c.dtype(), want.as_str()) {
             let ca = c.str()?;
             for (k, v) in ca.iter().enumerate() {
@@ -291,42 +345,81 @@ fn table_points(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Vec<(f64, f64,
     let ctx = |what: &str| format!("input `{}` table `{}`: {what}", inp.id, s.table);
     let x = col_f64(&df, &s.x).with_context(|| ctx("x"))?;
     let y = col_f64(&df, &s.y).with_context(|| ctx("y"))?;
-    let e = match &s.err { Some(c) => col_f64(&df, c).with_context(|| ctx("err"))?, None => vec![f64::NAN; n] };
+    let e = match &s.err {
+        Some(c) => col_f64(&df, c).with_context(|| ctx("err"))?,
+        None => vec![f64::NAN; n],
+    };
     let d = match &s.y_div {
         Some(c) => match col_f64(&df, c) {
             Ok(v) => v,
-            Err(_) => vec![inp.scalar(c).with_context(|| ctx("y_div is neither a column nor a scalar"))?; n],
+            Err(_) => vec![
+                inp.scalar(c)
+                    .with_context(|| ctx("y_div is neither a column nor a scalar"))?;
+                n
+            ],
         },
         None => vec![1.0; n],
     };
     let d0 = match &s.y_div_initial {
-        Some(c) => *col_f64(&df, c).with_context(|| ctx("y_div_initial"))?.first().ok_or_else(|| anyhow!("{}", ctx("empty table")))?,
+        Some(c) => *col_f64(&df, c)
+            .with_context(|| ctx("y_div_initial"))?
+            .first()
+            .ok_or_else(|| anyhow!("{}", ctx("empty table")))?,
         None => 1.0,
     };
     let d: Vec<f64> = d.into_iter().map(|v| v * d0).collect();
-    let g = match &s.group { Some(c) => col_f64(&df, c).with_context(|| ctx("group"))?, None => vec![0.0; n] };
-    Ok((0..n).filter(|&k| keep[k]).map(|k| (x[k] * s.x_scale, y[k] * s.y_scale / d[k], e[k] * s.y_scale / d[k], g[k])).collect())
+    let g = match &s.group {
+        Some(c) => col_f64(&df, c).with_context(|| ctx("group"))?,
+        None => vec![0.0; n],
+    };
+    Ok((0..n)
+        .filter(|&k| keep[k])
+        .map(|k| (x[k] * s.x_scale, y[k] * s.y_scale / d[k], e[k] * s.y_scale / d[k], g[k]))
+        .collect())
 }
 
 /// One point from an input's scalars (None when the filter drops it).
 fn scalar_point(inp: &InputRef, s: &SeriesSpec) -> anyhow::Result<Option<(f64, f64, f64, f64)>> {
     let sc = inp.scalars()?;
     for (k, want) in &s.filter {
-        let v = *sc.get(k).ok_or_else(|| anyhow!("input `{}` has no scalar `{k}` (filter)", inp.id))?;
+        let v = *sc
+            .get(k)
+            .ok_or_else(|| anyhow!("input `{}` has no scalar `{k}` (filter)", inp.id))?;
         if !matches_num(v, want) {
             return Ok(None);
         }
     }
-    let get = |k: &str| sc.get(k).copied().ok_or_else(|| anyhow!("input `{}` has no scalar `{k}`", inp.id));
-    let d = match &s.y_div { Some(c) => get(c)?, None => 1.0 };
-    let e = match &s.err { Some(c) => get(c)?, None => f64::NAN };
-    Ok(Some((get(&s.x)? * s.x_scale, get(&s.y)? * s.y_scale / d, e * s.y_scale / d, 0.0)))
+    let get = |k: &str| {
+        sc.get(k)
+            .copied()
+            .ok_or_else(|| anyhow!("input `{}` has no scalar `{k}`", inp.id))
+    };
+    let d = match &s.y_div {
+        Some(c) => get(c)?,
+        None => 1.0,
+    };
+    let e = match &s.err {
+        Some(c) => get(c)?,
+        None => f64::NAN,
+    };
+    Ok(Some((
+        get(&s.x)? * s.x_scale,
+        get(&s.y)? * s.y_scale / d,
+        e * s.y_scale / d,
+        0.0,
+    )))
 }
 
 /// The series of one declaration: one, or one per distinct value of `group`.
 fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Vec<Series>> {
     let inputs = ctx.inputs_of(&s.from);
-    anyhow::ensure!(!inputs.is_empty(), "stage `{}`: series `{}` reads role `{}`, which names no input", ctx.id, s.label, s.from);
+    anyhow::ensure!(
+        !inputs.is_empty(),
+        "stage `{}`: series `{}` reads role `{}`, which names no input",
+        ctx.id,
+        s.label,
+        s.from
+    );
     let mut pts: Vec<(f64, f64, f64, f64)> = Vec::new();
     for inp in inputs {
         match s.source {
@@ -337,7 +430,11 @@ fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Vec
     if s.source == Source::Scalars {
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
-    let style = match s.draw { Draw::Points => Style::Points, Draw::Line => Style::Line, Draw::LinePoints => Style::LinePoints };
+    let style = match s.draw {
+        Draw::Points => Style::Points,
+        Draw::Line => Style::Line,
+        Draw::LinePoints => Style::LinePoints,
+    };
     let mut groups: Vec<f64> = pts.iter().map(|p| p.3).collect();
     groups.sort_by(|a, b| a.total_cmp(b));
     groups.dedup();
@@ -347,7 +444,10 @@ fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Vec
         .enumerate()
         .map(|(k, g)| {
             let sel: Vec<&(f64, f64, f64, f64)> = pts.iter().filter(|p| p.3 == *g).collect();
-            let label = match &s.group { Some(_) => format!("{} = {}", s.label, crate::report::plot::tick(*g)), None => s.label.clone() };
+            let label = match &s.group {
+                Some(_) => format!("{} = {}", s.label, crate::report::plot::tick(*g)),
+                None => s.label.clone(),
+            };
             let mut out = Series::new(label, style, sel.iter().map(|p| (p.0, p.1)).collect(), base + k);
             if s.err.is_some() {
                 out = out.with_errors(sel.iter().map(|p| p.2).collect());
@@ -359,18 +459,38 @@ fn series_of(ctx: &StageCtx, s: &SeriesSpec, color: usize) -> anyhow::Result<Vec
 
 /// The dashed curves of a `power-law-fit` stage: one per regime, over its fitted range.
 fn fit_series(ctx: &StageCtx, f: &FitOverlay, color: usize) -> anyhow::Result<Vec<Series>> {
-    let inp = ctx.inputs_of(&f.from).first().ok_or_else(|| anyhow!("stage `{}`: fit `{}` reads role `{}`, which names no input", ctx.id, f.label, f.from))?;
+    let inp = ctx.inputs_of(&f.from).first().ok_or_else(|| {
+        anyhow!(
+            "stage `{}`: fit `{}` reads role `{}`, which names no input",
+            ctx.id,
+            f.label,
+            f.from
+        )
+    })?;
     let t = inp.table("table")?;
     let (lo, hi) = (col_f64(&t, "x_min")?, col_f64(&t, "x_max")?);
-    let (n, se, c) = (col_f64(&t, "exponent")?, col_f64(&t, "exponent_se")?, col_f64(&t, "prefactor")?);
+    let (n, se, c) = (
+        col_f64(&t, "exponent")?,
+        col_f64(&t, "exponent_se")?,
+        col_f64(&t, "prefactor")?,
+    );
     Ok((0..t.height())
         .map(|k| {
             let pts = (0..40).map(|i| {
                 let x = lo[k] * (hi[k] / lo[k]).powf(i as f64 / 39.0);
                 (x, c[k] * x.powf(n[k]))
             });
-            let regime = if t.height() > 1 { if k == 0 { " (low)" } else { " (high)" } } else { "" };
-            Series::new(format!("fit {}{regime}: {:.3}·x^({:.3} ± {:.3})", f.label, c[k], n[k], se[k]), Style::Dashed, pts.collect(), f.color.unwrap_or(color))
+            let regime = if t.height() > 1 {
+                if k == 0 { " (low)" } else { " (high)" }
+            } else {
+                ""
+            };
+            Series::new(
+                format!("fit {}{regime}: {:.3}·x^({:.3} ± {:.3})", f.label, c[k], n[k], se[k]),
+                Style::Dashed,
+                pts.collect(),
+                f.color.unwrap_or(color),
+            )
         })
         .collect())
 }
@@ -391,17 +511,34 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
         if !panel.laws.is_empty() {
             let role = p.laws_from.as_deref().unwrap_or("laws");
-            let laws = ctx.inputs_of(role).first().ok_or_else(|| anyhow!("stage `{}`: laws need the `reference-laws` stage under role `{role}`", ctx.id))?.table("table")?;
+            let laws = ctx
+                .inputs_of(role)
+                .first()
+                .ok_or_else(|| {
+                    anyhow!(
+                        "stage `{}`: laws need the `reference-laws` stage under role `{role}`",
+                        ctx.id
+                    )
+                })?
+                .table("table")?;
             let a = col_f64(&laws, "a")?;
             for (k, l) in panel.laws.iter().enumerate() {
                 let v = col_f64(&laws, l)?;
                 let label = super::laws::LAWS.iter().find(|x| x.0 == l).map(|x| x.1).unwrap_or(l);
-                series.push(Series::new(label, Style::Dashed, a.iter().copied().zip(v).collect(), 5 + k));
+                series.push(Series::new(
+                    label,
+                    Style::Dashed,
+                    a.iter().copied().zip(v).collect(),
+                    5 + k,
+                ));
             }
         }
         // Points drawn are what the figure shows: count them (a golden number that moves
         // when a filter or an upstream sweep silently changes).
-        out.scalar(&format!("panel{}_points", charts.len()), series[..n_data].iter().map(|s| s.points.len() as f64).sum());
+        out.scalar(
+            &format!("panel{}_points", charts.len()),
+            series[..n_data].iter().map(|s| s.points.len() as f64).sum(),
+        );
         charts.push(Chart {
             title: panel.title.clone().unwrap_or_else(|| caption.clone()),
             footer: String::new(),
@@ -424,10 +561,19 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     // stage alike (report::measured); the declared error is the figure's own scalar and
     // note (what exactly was measured), not a second footer line.
     if let Some(e) = &p.error {
-        let inp = ctx.inputs_of(&e.from).first().ok_or_else(|| anyhow!("stage `{}`: error note reads role `{}`, which names no input", ctx.id, e.from))?;
+        let inp = ctx.inputs_of(&e.from).first().ok_or_else(|| {
+            anyhow!(
+                "stage `{}`: error note reads role `{}`, which names no input",
+                ctx.id,
+                e.from
+            )
+        })?;
         let v = inp.scalar(&e.scalar)?;
         out.scalar("profile_error", v);
-        out.note(format!("Measured error ({}): {:.3} (`{}` of `{}`).", e.label, v, e.scalar, inp.id));
+        out.note(format!(
+            "Measured error ({}): {:.3} (`{}` of `{}`).",
+            e.label, v, e.scalar, inp.id
+        ));
     }
     let cols = p.columns.unwrap_or(charts.len().min(2));
     out.figure("figure", panels_to_svg(&charts, cols, &footer(&ctx.profile, ""))?);
@@ -469,7 +615,10 @@ mod tests {
         }))
         .unwrap();
         let keys: Vec<String> = p.validate().into_iter().map(|i| i.key).collect();
-        assert!(keys.contains(&"panels[0].laws".to_string()) && keys.contains(&"laws_from".to_string()), "{keys:?}");
+        assert!(
+            keys.contains(&"panels[0].laws".to_string()) && keys.contains(&"laws_from".to_string()),
+            "{keys:?}"
+        );
     }
 
     #[test]

@@ -42,15 +42,31 @@ pub fn mpm_rows(snaps: &[crate::mpm::column::Snapshot], tau_c: f64, half: f64) -
 
 /// The `snapshots` table of any run from frames (pile runs: DEM and CD grains, MPM points),
 /// with the time column `time_col` (t / `t_unit`) and, when the frames carry it, σ_yy.
-pub fn frame_rows(frames: &[crate::analysis::pile::Frame], time_col: &'static str, t_unit: f64) -> anyhow::Result<DataFrame> {
-    let mut cols: Vec<(&str, Vec<f64>)> = ["k", time_col, "x_m", "y_m", "half_m", "vx_m_s", "vy_m_s", "speed_m_s"].iter().map(|n| (*n, Vec::new())).collect();
+pub fn frame_rows(
+    frames: &[crate::analysis::pile::Frame],
+    time_col: &'static str,
+    t_unit: f64,
+) -> anyhow::Result<DataFrame> {
+    let mut cols: Vec<(&str, Vec<f64>)> = ["k", time_col, "x_m", "y_m", "half_m", "vx_m_s", "vy_m_s", "speed_m_s"]
+        .iter()
+        .map(|n| (*n, Vec::new()))
+        .collect();
     let stress = !frames.is_empty() && frames.iter().all(|f| f.sigma_yy.len() == f.x.len());
     if stress {
         cols.push(("sigma_yy_pa", Vec::new()));
     }
     for (k, f) in frames.iter().enumerate() {
         for i in 0..f.x.len() {
-            let row = [k as f64, f.t / t_unit, f.x[i], f.y[i], f.half[i], f.vx[i], f.vy[i], f.vx[i].hypot(f.vy[i])];
+            let row = [
+                k as f64,
+                f.t / t_unit,
+                f.x[i],
+                f.y[i],
+                f.half[i],
+                f.vx[i],
+                f.vy[i],
+                f.vx[i].hypot(f.vy[i]),
+            ];
             for (c, v) in cols.iter_mut().zip(row) {
                 c.1.push(v);
             }
@@ -64,14 +80,37 @@ pub fn frame_rows(frames: &[crate::analysis::pile::Frame], time_col: &'static st
 
 #[allow(clippy::too_many_arguments)]
 fn push(c: &mut BTreeMap<&str, Vec<f64>>, k: usize, t: f64, x: f64, y: f64, half: f64, vx: f64, vy: f64) {
-    for (name, v) in [("k", k as f64), ("t_over_tau_c", t), ("x_m", x), ("y_m", y), ("half_m", half), ("vx_m_s", vx), ("vy_m_s", vy), ("speed_m_s", vx.hypot(vy))] {
+    for (name, v) in [
+        ("k", k as f64),
+        ("t_over_tau_c", t),
+        ("x_m", x),
+        ("y_m", y),
+        ("half_m", half),
+        ("vx_m_s", vx),
+        ("vy_m_s", vy),
+        ("speed_m_s", vx.hypot(vy)),
+    ] {
         c.entry(name).or_default().push(v);
     }
 }
 
 fn table(c: BTreeMap<&str, Vec<f64>>) -> anyhow::Result<DataFrame> {
-    let order = ["k", "t_over_tau_c", "x_m", "y_m", "half_m", "vx_m_s", "vy_m_s", "speed_m_s"];
-    frame(order.iter().map(|n| (*n, c.get(n).cloned().unwrap_or_default())).collect())
+    let order = [
+        "k",
+        "t_over_tau_c",
+        "x_m",
+        "y_m",
+        "half_m",
+        "vx_m_s",
+        "vy_m_s",
+        "speed_m_s",
+    ];
+    frame(
+        order
+            .iter()
+            .map(|n| (*n, c.get(n).cloned().unwrap_or_default()))
+            .collect(),
+    )
 }
 
 /// Body shape.
@@ -132,7 +171,12 @@ pub struct TimeAxis {
 }
 
 impl Default for TimeAxis {
-    fn default() -> Self { TimeAxis { column: "t_over_tau_c".into(), unit: "τ_c".into() } }
+    fn default() -> Self {
+        TimeAxis {
+            column: "t_over_tau_c".into(),
+            unit: "τ_c".into(),
+        }
+    }
 }
 
 /// Parameters of a `snapshot` stage.
@@ -191,24 +235,59 @@ impl SnapParams {
 impl Validate for SnapParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        c.check(!self.panels.is_empty() && self.panels.len() <= 12, "panels", self.panels.len(), "1 to 12 panels");
-        c.check((1..=4).contains(&self.columns), "columns", self.columns, "1 to 4 panels per row");
+        c.check(
+            !self.panels.is_empty() && self.panels.len() <= 12,
+            "panels",
+            self.panels.len(),
+            "1 to 12 panels",
+        );
+        c.check(
+            (1..=4).contains(&self.columns),
+            "columns",
+            self.columns,
+            "1 to 4 panels per row",
+        );
         if let Some([lo, hi]) = self.range {
-            c.check(lo.is_finite() && hi.is_finite() && hi > lo, "range", format!("[{lo}, {hi}]"), "[lo, hi] with lo < hi");
+            c.check(
+                lo.is_finite() && hi.is_finite() && hi > lo,
+                "range",
+                format!("[{lo}, {hi}]"),
+                "[lo, hi] with lo < hi",
+            );
         }
         let view_ok = |v: [f64; 4]| v.iter().all(|x| x.is_finite()) && v[1] > v[0] && v[3] > v[2];
         if let Some(v) = self.view {
-            c.check(view_ok(v), "view", format!("{v:?}"), "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1");
+            c.check(
+                view_ok(v),
+                "view",
+                format!("{v:?}"),
+                "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1",
+            );
         }
         for (i, p) in self.panels.iter().enumerate() {
             if let Some(v) = p.view {
-                c.check(view_ok(v), &format!("panels[{i}].view"), format!("{v:?}"), "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1");
+                c.check(
+                    view_ok(v),
+                    &format!("panels[{i}].view"),
+                    format!("{v:?}"),
+                    "[x0, x1, y0, y1] in metres with x0 < x1, y0 < y1",
+                );
             }
             if let Some(g) = p.grid_m {
-                c.check(g.is_finite() && g > 0.0, &format!("panels[{i}].grid_m"), g, "a grid spacing > 0 [m]");
+                c.check(
+                    g.is_finite() && g > 0.0,
+                    &format!("panels[{i}].grid_m"),
+                    g,
+                    "a grid spacing > 0 [m]",
+                );
             }
         }
-        c.check(!self.time.column.is_empty(), "time.column", "\"\"", "the name of the upstream tables' time column");
+        c.check(
+            !self.time.column.is_empty(),
+            "time.column",
+            "\"\"",
+            "the name of the upstream tables' time column",
+        );
         c.issues
     }
 }
@@ -238,23 +317,60 @@ fn expand(ctx: &StageCtx, p: &SnapParams) -> anyhow::Result<Vec<(SnapPanel, usiz
             continue;
         };
         let inputs = ctx.inputs_of(&panel.from);
-        anyhow::ensure!(!inputs.is_empty(), "stage `{}`: panel `{}` reads role `{}`, which names no input", ctx.id, panel.title, panel.from);
+        anyhow::ensure!(
+            !inputs.is_empty(),
+            "stage `{}`: panel `{}` reads role `{}`, which names no input",
+            ctx.id,
+            panel.title,
+            panel.from
+        );
         for (i, inp) in inputs.iter().enumerate() {
-            let v = path.split('.').try_fold(&inp.params, |v, k| v.get(k)).ok_or_else(|| anyhow!("stage `{}`: panels `each: {path}`: input `{}` has no parameter `{path}`", ctx.id, inp.id))?;
+            let v = path.split('.').try_fold(&inp.params, |v, k| v.get(k)).ok_or_else(|| {
+                anyhow!(
+                    "stage `{}`: panels `each: {path}`: input `{}` has no parameter `{path}`",
+                    ctx.id,
+                    inp.id
+                )
+            })?;
             let shown = v.as_f64().map(|x| format!("{x}")).unwrap_or_else(|| v.to_string());
-            out.push((SnapPanel { title: format!("{} {shown}", panel.title), each: None, ..panel.clone() }, i));
+            out.push((
+                SnapPanel {
+                    title: format!("{} {shown}", panel.title),
+                    each: None,
+                    ..panel.clone()
+                },
+                i,
+            ));
         }
     }
-    anyhow::ensure!(out.len() <= 12, "stage `{}`: {} panels after expanding `each` (at most 12)", ctx.id, out.len());
+    anyhow::ensure!(
+        out.len() <= 12,
+        "stage `{}`: {} panels after expanding `each` (at most 12)",
+        ctx.id,
+        out.len()
+    );
     Ok(out)
 }
 
 fn rows(ctx: &StageCtx, p: &SnapParams, panel: &SnapPanel, input: usize) -> anyhow::Result<Rows> {
-    let inp = ctx.inputs_of(&panel.from).get(input).ok_or_else(|| anyhow!("stage `{}`: panel `{}` reads role `{}`, which names no input", ctx.id, panel.title, panel.from))?;
+    let inp = ctx.inputs_of(&panel.from).get(input).ok_or_else(|| {
+        anyhow!(
+            "stage `{}`: panel `{}` reads role `{}`, which names no input",
+            ctx.id,
+            panel.title,
+            panel.from
+        )
+    })?;
     let df = inp.table(&panel.table)?;
     let k = col_f64(&df, "k")?;
     let keep: Vec<usize> = (0..k.len()).filter(|&i| k[i] == panel.k as f64).collect();
-    anyhow::ensure!(!keep.is_empty(), "input `{}` table `{}` has no snapshot k = {} (its run stopped before that instant?)", inp.id, panel.table, panel.k);
+    anyhow::ensure!(
+        !keep.is_empty(),
+        "input `{}` table `{}` has no snapshot k = {} (its run stopped before that instant?)",
+        inp.id,
+        panel.table,
+        panel.k
+    );
     let pick = |name: &str| -> anyhow::Result<Vec<f64>> {
         let c = col_f64(&df, name).map_err(|e| anyhow!("input `{}` table `{}`: {e}", inp.id, panel.table))?;
         Ok(keep.iter().map(|&i| c[i]).collect())
@@ -263,7 +379,13 @@ fn rows(ctx: &StageCtx, p: &SnapParams, panel: &SnapPanel, input: usize) -> anyh
         Some(c) => pick(c)?,
         None => Vec::new(),
     };
-    Ok(Rows { x: pick("x_m")?, y: pick("y_m")?, half: pick("half_m")?, v, t: pick(&p.time.column)?[0] })
+    Ok(Rows {
+        x: pick("x_m")?,
+        y: pick("y_m")?,
+        half: pick("half_m")?,
+        v,
+        t: pick(&p.time.column)?[0],
+    })
 }
 
 /// Place standalone SVG documents side by side (row-major) in one document.
@@ -271,29 +393,61 @@ fn tile(svgs: &[String], cols: usize, foot: &str) -> String {
     let dims: Vec<(f64, f64)> = svgs
         .iter()
         .map(|s| {
-            let attr = |a: &str| -> f64 { s.split(&format!(" {a}=\"")).nth(1).and_then(|r| r.split('"').next()).and_then(|v| v.parse().ok()).unwrap_or(400.0) };
+            let attr = |a: &str| -> f64 {
+                s.split(&format!(" {a}=\""))
+                    .nth(1)
+                    .and_then(|r| r.split('"').next())
+                    .and_then(|v| v.parse().ok())
+                    .unwrap_or(400.0)
+            };
             (attr("width"), attr("height"))
         })
         .collect();
     let rows = svgs.len().div_ceil(cols);
-    let col_w: Vec<f64> = (0..cols).map(|c| (0..rows).filter_map(|r| dims.get(r * cols + c)).map(|d| d.0).fold(0.0, f64::max)).collect();
-    let row_h: Vec<f64> = (0..rows).map(|r| (0..cols).filter_map(|c| dims.get(r * cols + c)).map(|d| d.1).fold(0.0, f64::max)).collect();
+    let col_w: Vec<f64> = (0..cols)
+        .map(|c| {
+            (0..rows)
+                .filter_map(|r| dims.get(r * cols + c))
+                .map(|d| d.0)
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let row_h: Vec<f64> = (0..rows)
+        .map(|r| {
+            (0..cols)
+                .filter_map(|c| dims.get(r * cols + c))
+                .map(|d| d.1)
+                .fold(0.0, f64::max)
+        })
+        .collect();
     let (w, h) = (col_w.iter().sum::<f64>(), row_h.iter().sum::<f64>() + 28.0);
-    let mut out = format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.1} {h:.1}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
+    let mut out = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.1} {h:.1}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+    );
     for (i, s) in svgs.iter().enumerate() {
         let (r, c) = (i / cols, i % cols);
-        let (x, y) = (col_w[..c].iter().fold(0.0, |a, b| a + b), row_h[..r].iter().fold(0.0, |a, b| a + b));
+        let (x, y) = (
+            col_w[..c].iter().fold(0.0, |a, b| a + b),
+            row_h[..r].iter().fold(0.0, |a, b| a + b),
+        );
         out.push_str(&s.replacen("<svg ", &format!("<svg x=\"{x:.1}\" y=\"{y:.1}\" "), 1));
         out.push('\n');
     }
-    out.push_str(&format!("<text x=\"8\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"12\" fill=\"#5a5a5a\">{}</text>\n</svg>\n", h - 9.0, foot.replace('&', "&amp;").replace('<', "&lt;")));
+    out.push_str(&format!(
+        "<text x=\"8\" y=\"{:.1}\" font-family=\"sans-serif\" font-size=\"12\" fill=\"#5a5a5a\">{}</text>\n</svg>\n",
+        h - 9.0,
+        foot.replace('&', "&amp;").replace('<', "&lt;")
+    ));
     out
 }
 
 fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut p: SnapParams = decode(ctx)?;
     let expanded = expand(ctx, &p)?;
-    let data: Vec<Rows> = expanded.iter().map(|(panel, i)| rows(ctx, &p, panel, *i)).collect::<anyhow::Result<_>>()?;
+    let data: Vec<Rows> = expanded
+        .iter()
+        .map(|(panel, i)| rows(ctx, &p, panel, *i))
+        .collect::<anyhow::Result<_>>()?;
     p.panels = expanded.into_iter().map(|(panel, _)| panel).collect();
     // One colour range per colouring column, shared by the panels it colours.
     let range_of = |col: &str| -> (f64, f64) {
@@ -302,7 +456,13 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         {
             return (a, b);
         }
-        let vals = p.panels.iter().zip(&data).filter(|(q, _)| p.colour_of(q) == Some(col)).flat_map(|(_, r)| r.v.iter().copied()).filter(|v| v.is_finite());
+        let vals = p
+            .panels
+            .iter()
+            .zip(&data)
+            .filter(|(q, _)| p.colour_of(q) == Some(col))
+            .flat_map(|(_, r)| r.v.iter().copied())
+            .filter(|v| v.is_finite());
         let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
         // Non-negative fields (speeds) start at 0, as before; signed ones (σ_yy, v_x) span their values.
         let lo = if lo >= 0.0 { 0.0 } else { lo };
@@ -326,25 +486,57 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     for (k, (panel, r)) in p.panels.iter().zip(&data).enumerate() {
         let col = p.colour_of(panel);
         let view = panel.view.map(|[a, b, c, d]| (a, b, c, d)).unwrap_or(view);
-        out.scalar(&format!("panel{k}_bodies"), r.x.len() as f64).scalar(&format!("panel{k}_{}", p.time.column), r.t);
+        out.scalar(&format!("panel{k}_bodies"), r.x.len() as f64)
+            .scalar(&format!("panel{k}_{}", p.time.column), r.t);
         let field = col.map(|c| {
             let range = range_of(c);
-            let label = panel.colour_label.clone().unwrap_or_else(|| if c == p.colour { p.colour_label.clone() } else { c.to_string() });
-            out.scalar(&format!("panel{k}_max_{c}"), r.v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+            let label = panel.colour_label.clone().unwrap_or_else(|| {
+                if c == p.colour {
+                    p.colour_label.clone()
+                } else {
+                    c.to_string()
+                }
+            });
+            out.scalar(
+                &format!("panel{k}_max_{c}"),
+                r.v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            );
             if !ranges.iter().any(|x| x.0 == c) {
                 ranges.push((c.to_string(), label.clone(), range));
             }
-            Field { values: &r.v, label, range }
+            Field {
+                values: &r.v,
+                label,
+                range,
+            }
         });
-        let mut segments = vec![Segment { a: (view.0, 0.0), b: (view.1, 0.0), color: "black", width: 2.0, dashed: false }];
+        let mut segments = vec![Segment {
+            a: (view.0, 0.0),
+            b: (view.1, 0.0),
+            color: "black",
+            width: 2.0,
+            dashed: false,
+        }];
         if let Some(g) = panel.grid_m {
             let (i0, i1) = ((view.0 / g).ceil() as i64, (view.1 / g).floor() as i64);
             for i in i0..=i1 {
-                segments.push(Segment { a: (i as f64 * g, view.2), b: (i as f64 * g, view.3), color: "#888", width: 0.6, dashed: false });
+                segments.push(Segment {
+                    a: (i as f64 * g, view.2),
+                    b: (i as f64 * g, view.3),
+                    color: "#888",
+                    width: 0.6,
+                    dashed: false,
+                });
             }
             let (j0, j1) = ((view.2 / g).ceil() as i64, (view.3 / g).floor() as i64);
             for j in j0..=j1 {
-                segments.push(Segment { a: (view.0, j as f64 * g), b: (view.1, j as f64 * g), color: "#888", width: 0.6, dashed: false });
+                segments.push(Segment {
+                    a: (view.0, j as f64 * g),
+                    b: (view.1, j as f64 * g),
+                    color: "#888",
+                    width: 0.6,
+                    dashed: false,
+                });
             }
         }
         let snap = Snapshot {
@@ -353,7 +545,10 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             x: &r.x,
             y: &r.y,
             half: &r.half,
-            shape: match panel.shape { Body::Disk => Shape::Disk, Body::Square => Shape::Square },
+            shape: match panel.shape {
+                Body::Disk => Shape::Disk,
+                Body::Square => Shape::Square,
+            },
             field,
             black: None,
             fill: None,
@@ -363,18 +558,39 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         };
         svgs.push(snap.to_svg());
     }
-    let range = ranges.iter().find(|x| x.0 == p.colour).map(|x| x.2).or(ranges.first().map(|x| x.2)).unwrap_or((0.0, 0.0));
+    let range = ranges
+        .iter()
+        .find(|x| x.0 == p.colour)
+        .map(|x| x.2)
+        .or(ranges.first().map(|x| x.2))
+        .unwrap_or((0.0, 0.0));
     out.scalar("colour_max", range.1);
     if ranges.len() > 1 {
         for (c, _, r) in &ranges {
-            out.scalar(&format!("range_{c}_lo"), r.0).scalar(&format!("range_{c}_hi"), r.1);
+            out.scalar(&format!("range_{c}_lo"), r.0)
+                .scalar(&format!("range_{c}_hi"), r.1);
         }
     }
-    let shared: Vec<String> = ranges.iter().map(|(_, l, r)| format!("{l} from {:.3} to {:.3}", r.0, r.1)).collect();
+    let shared: Vec<String> = ranges
+        .iter()
+        .map(|(_, l, r)| format!("{l} from {:.3} to {:.3}", r.0, r.1))
+        .collect();
     let foot = if ranges.len() == 1 {
-        footer(&ctx.profile, &format!("one colour range for every panel: {} from {:.3} to {:.3}", ranges[0].1, range.0, range.1))
+        footer(
+            &ctx.profile,
+            &format!(
+                "one colour range for every panel: {} from {:.3} to {:.3}",
+                ranges[0].1, range.0, range.1
+            ),
+        )
     } else {
-        footer(&ctx.profile, &format!("one colour range per field, shared by its panels: {}", shared.join("; ")))
+        footer(
+            &ctx.profile,
+            &format!(
+                "one colour range per field, shared by its panels: {}",
+                shared.join("; ")
+            ),
+        )
     };
     out.figure("figure", tile(&svgs, p.columns, &foot));
     Ok(out)
@@ -399,7 +615,10 @@ mod tests {
         let a = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"100\" height=\"50\" viewBox=\"0 0 100 50\"><circle/></svg>".to_string();
         let s = tile(&[a.clone(), a.clone(), a], 2, "f");
         assert_eq!(s.matches("<circle/>").count(), 3);
-        assert!(s.contains("<svg x=\"100.0\" y=\"0.0\"") && s.contains("<svg x=\"0.0\" y=\"50.0\""), "{s}");
+        assert!(
+            s.contains("<svg x=\"100.0\" y=\"0.0\"") && s.contains("<svg x=\"0.0\" y=\"50.0\""),
+            "{s}"
+        );
         assert!(s.contains("width=\"200\" height=\"128\""), "{s}");
     }
 }

@@ -37,14 +37,23 @@ pub struct SummaryParams {
 }
 
 impl Default for SummaryParams {
-    fn default() -> Self { SummaryParams { profile: BTreeMap::new() } }
+    fn default() -> Self {
+        SummaryParams {
+            profile: BTreeMap::new(),
+        }
+    }
 }
 
 impl Validate for SummaryParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
         for k in self.profile.keys() {
-            c.check(["dem", "mpm", "cd"].contains(&k.as_str()), &format!("profile.{k}"), k, "a method: dem, mpm or cd");
+            c.check(
+                ["dem", "mpm", "cd"].contains(&k.as_str()),
+                &format!("profile.{k}"),
+                k,
+                "a method: dem, mpm or cd",
+            );
         }
         c.issues
     }
@@ -67,9 +76,13 @@ struct Row {
     members: f64,
 }
 
-fn g(v: f64) -> String { crate::report::plot::tick(v) }
+fn g(v: f64) -> String {
+    crate::report::plot::tick(v)
+}
 
-fn has(df: &polars::prelude::DataFrame, c: &str) -> bool { df.get_column_names().iter().any(|n| n.as_str() == c) }
+fn has(df: &polars::prelude::DataFrame, c: &str) -> bool {
+    df.get_column_names().iter().any(|n| n.as_str() == c)
+}
 
 /// Rows of one work-precision input.
 fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
@@ -79,7 +92,13 @@ fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
     let mut out = Vec::new();
     if has(&t, "stiffness_factor") {
         // DEM: ensembles; wall = one member's collapse + its share of the settling
-        let (k, f, q, sd, m) = (col_f64(&t, "stiffness_factor")?, col_f64(&t, "dt_fraction")?, col_f64(&t, "runout_norm_mean")?, col_f64(&t, "runout_norm_std")?, col_f64(&t, "members")?);
+        let (k, f, q, sd, m) = (
+            col_f64(&t, "stiffness_factor")?,
+            col_f64(&t, "dt_fraction")?,
+            col_f64(&t, "runout_norm_mean")?,
+            col_f64(&t, "runout_norm_std")?,
+            col_f64(&t, "members")?,
+        );
         let (e, se) = (col_f64(&t, "runout_rel_error")?, col_f64(&t, "runout_rel_error_se")?);
         let settle = col_f64(&timing, "settle_wall_s").unwrap_or_else(|_| vec![0.0; wall.len()]);
         let grains = col_f64(&t, "grains").ok();
@@ -110,9 +129,21 @@ fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
     } else if has(&t, "ppc") {
         // MPM: deterministic runs, ensembles of perturbed starts where the stage ran them;
         // the reference run is not in the table
-        let (n, h, c, q, e) = (col_f64(&t, "ppc")?, col_f64(&t, "cell_size_m")?, col_f64(&t, "courant")?, col_f64(&t, "runout_norm")?, col_f64(&t, "runout_rel_error")?);
+        let (n, h, c, q, e) = (
+            col_f64(&t, "ppc")?,
+            col_f64(&t, "cell_size_m")?,
+            col_f64(&t, "courant")?,
+            col_f64(&t, "runout_norm")?,
+            col_f64(&t, "runout_rel_error")?,
+        );
         let opt = |c: &str, v: f64| col_f64(&t, c).unwrap_or_else(|_| vec![v; n.len()]);
-        let (lin, musl, m, sd, se) = (opt("shape_linear", 0.0), opt("scheme_musl", 0.0), opt("members", 1.0), opt("runout_norm_std", f64::NAN), opt("runout_rel_error_se", f64::NAN));
+        let (lin, musl, m, sd, se) = (
+            opt("shape_linear", 0.0),
+            opt("scheme_musl", 0.0),
+            opt("members", 1.0),
+            opt("runout_norm_std", f64::NAN),
+            opt("runout_rel_error_se", f64::NAN),
+        );
         for i in 0..n.len() {
             let mut setting = format!("ppc{}-h{}mm-C{}", g(n[i]), g(1e3 * h[i]), g(c[i]));
             let mut knobs = vec![("ppc", n[i]), ("cell_size_m", h[i]), ("courant", c[i])];
@@ -145,7 +176,11 @@ fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
         let (dt, tol) = (col_f64(&t, "dt_s")?, col_f64(&t, "tolerance")?);
         let opt = |c: &str, v: f64| col_f64(&t, c).unwrap_or_else(|_| vec![v; dt.len()]);
         let (cap, m) = (opt("max_iterations", f64::NAN), opt("members", 1.0));
-        for (quantity, qc, ec) in [("runout", "runout_norm", "runout_rel_error"), ("centre-of-mass travel", "com_shift_norm", "com_shift_rel_error"), ("dissipated energy", "dissipated_j_m", "dissipated_rel_error")] {
+        for (quantity, qc, ec) in [
+            ("runout", "runout_norm", "runout_rel_error"),
+            ("centre-of-mass travel", "com_shift_norm", "com_shift_rel_error"),
+            ("dissipated energy", "dissipated_j_m", "dissipated_rel_error"),
+        ] {
             let (q, e) = (col_f64(&t, qc)?, col_f64(&t, ec)?);
             let (sd, se) = (opt(&format!("{qc}_std"), f64::NAN), opt(&format!("{ec}_se"), f64::NAN));
             for i in 0..dt.len() {
@@ -174,7 +209,10 @@ fn rows_of(inp: &InputRef) -> anyhow::Result<Vec<Row>> {
             }
         }
     } else {
-        anyhow::bail!("input `{}` is not a work-precision stage (no stiffness_factor, ppc or tolerance column)", inp.id);
+        anyhow::bail!(
+            "input `{}` is not a work-precision stage (no stiffness_factor, ppc or tolerance column)",
+            inp.id
+        );
     }
     Ok(out)
 }
@@ -199,8 +237,17 @@ fn orders(rows: &[Row]) -> Vec<Order> {
     let mut groups: BTreeMap<(String, &'static str, &'static str, String), Vec<&Row>> = BTreeMap::new();
     for r in rows {
         for (ki, (knob, _)) in r.knobs.iter().enumerate() {
-            let others: Vec<String> = r.knobs.iter().enumerate().filter(|(j, _)| *j != ki).map(|(_, (n, v))| format!("{n}={}", g(*v))).collect();
-            groups.entry((r.stage.clone(), r.quantity, knob, others.join(","))).or_default().push(r);
+            let others: Vec<String> = r
+                .knobs
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != ki)
+                .map(|(_, (n, v))| format!("{n}={}", g(*v)))
+                .collect();
+            groups
+                .entry((r.stage.clone(), r.quantity, knob, others.join(",")))
+                .or_default()
+                .push(r);
         }
     }
     for ((_, quantity, knob, at), mut g_rows) in groups {
@@ -210,7 +257,11 @@ fn orders(rows: &[Row]) -> Vec<Order> {
         let finer_is_larger = matches!(knob, "ppc" | "stiffness_factor" | "max_iterations" | "grains");
         g_rows.sort_by(|a, b| {
             let (x, y) = (a.knobs[ki].1, b.knobs[ki].1);
-            if finer_is_larger { y.total_cmp(&x) } else { x.total_cmp(&y) }
+            if finer_is_larger {
+                y.total_cmp(&x)
+            } else {
+                x.total_cmp(&y)
+            }
         });
         for w in g_rows.windows(3) {
             let x: Vec<f64> = w.iter().map(|r| r.knobs[ki].1).collect();
@@ -218,7 +269,17 @@ fn orders(rows: &[Row]) -> Vec<Order> {
             let levels = x.iter().map(|v| g(*v)).collect::<Vec<_>>().join(", ");
             let ratio = if finer_is_larger { 1.0 / r1 } else { r1 };
             if !((r1 / r2 - 1.0).abs() < 0.02) || (r1 - 1.0).abs() < 1e-9 {
-                out.push(Order { method: w[0].method, quantity, knob, at: at.clone(), levels, ratio: f64::NAN, order: f64::NAN, sound: false, why: "levels not in a constant ratio".into() });
+                out.push(Order {
+                    method: w[0].method,
+                    quantity,
+                    knob,
+                    at: at.clone(),
+                    levels,
+                    ratio: f64::NAN,
+                    order: f64::NAN,
+                    sound: false,
+                    why: "levels not in a constant ratio".into(),
+                });
                 continue;
             }
             let (d1, d2) = (w[1].value - w[0].value, w[2].value - w[1].value);
@@ -230,7 +291,13 @@ fn orders(rows: &[Row]) -> Vec<Order> {
             } else if d1.signum() != d2.signum() {
                 "differences change sign (not in the asymptotic range)".to_string()
             } else if s1.is_finite() && (d1.abs() < 2.0 * s1 || d2.abs() < 2.0 * s2) {
-                format!("differences {:.3}, {:.3} within 2 standard errors ({:.3}, {:.3}) of the ensemble", d1.abs(), d2.abs(), s1, s2)
+                format!(
+                    "differences {:.3}, {:.3} within 2 standard errors ({:.3}, {:.3}) of the ensemble",
+                    d1.abs(),
+                    d2.abs(),
+                    s1,
+                    s2
+                )
             } else if d2.abs() <= d1.abs() {
                 "difference does not grow with the knob".to_string()
             } else if p < 0.5 {
@@ -238,7 +305,17 @@ fn orders(rows: &[Row]) -> Vec<Order> {
             } else {
                 String::new()
             };
-            out.push(Order { method: w[0].method, quantity, knob, at: at.clone(), levels, ratio, order: p, sound: why.is_empty(), why: if why.is_empty() { "sound".into() } else { why } });
+            out.push(Order {
+                method: w[0].method,
+                quantity,
+                knob,
+                at: at.clone(),
+                levels,
+                ratio,
+                order: p,
+                sound: why.is_empty(),
+                why: if why.is_empty() { "sound".into() } else { why },
+            });
         }
     }
     out
@@ -262,7 +339,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         ("profile", fcol(&|r| is_profile(r) as u8 as f64)),
     ])?;
     use polars::prelude::{Column, NamedFrom, Series as PlSeries};
-    let text = |name: &str, f: &dyn Fn(&Row) -> String| Column::from(PlSeries::new(name.into(), rows.iter().map(f).collect::<Vec<String>>()));
+    let text = |name: &str, f: &dyn Fn(&Row) -> String| {
+        Column::from(PlSeries::new(name.into(), rows.iter().map(f).collect::<Vec<String>>()))
+    };
     let mut cols = vec![
         text("method", &|r| r.method.to_string()),
         text("stage", &|r| r.stage.clone()),
@@ -274,27 +353,62 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     out.table("table", df);
     let ord = orders(&rows);
     let ocols = vec![
-        Column::from(PlSeries::new("method".into(), ord.iter().map(|o| o.method.to_string()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("quantity".into(), ord.iter().map(|o| o.quantity.to_string()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("knob".into(), ord.iter().map(|o| o.knob.to_string()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("other_knobs".into(), ord.iter().map(|o| o.at.clone()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("levels".into(), ord.iter().map(|o| o.levels.clone()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("ratio".into(), ord.iter().map(|o| o.ratio).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("observed_order".into(), ord.iter().map(|o| o.order).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("verdict".into(), ord.iter().map(|o| o.why.clone()).collect::<Vec<_>>())),
+        Column::from(PlSeries::new(
+            "method".into(),
+            ord.iter().map(|o| o.method.to_string()).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "quantity".into(),
+            ord.iter().map(|o| o.quantity.to_string()).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "knob".into(),
+            ord.iter().map(|o| o.knob.to_string()).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "other_knobs".into(),
+            ord.iter().map(|o| o.at.clone()).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "levels".into(),
+            ord.iter().map(|o| o.levels.clone()).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "ratio".into(),
+            ord.iter().map(|o| o.ratio).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "observed_order".into(),
+            ord.iter().map(|o| o.order).collect::<Vec<_>>(),
+        )),
+        Column::from(PlSeries::new(
+            "verdict".into(),
+            ord.iter().map(|o| o.why.clone()).collect::<Vec<_>>(),
+        )),
     ];
     out.table("orders", polars::prelude::DataFrame::new_infer_height(ocols)?);
     let n_sound = ord.iter().filter(|o| o.sound).count();
     for o in ord.iter().filter(|o| o.sound) {
         out.scalar(&format!("{}_order_{}", o.method, o.knob), o.order);
     }
-    out.scalar("orders_sound", n_sound as f64).scalar("orders_tested", ord.len() as f64);
+    out.scalar("orders_sound", n_sound as f64)
+        .scalar("orders_tested", ord.len() as f64);
     let mut prof: Vec<(&str, Row)> = Vec::new();
     for (method, setting) in &p.profile {
-        let hit: Vec<&Row> = rows.iter().filter(|r| r.method == method && r.setting == *setting).collect();
+        let hit: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.method == method && r.setting == *setting)
+            .collect();
         let Some(r) = hit.first() else {
-            let have: Vec<&str> = rows.iter().filter(|r| r.method == method).map(|r| r.setting.as_str()).collect();
-            anyhow::bail!("profile.{method} = `{setting}` is not a setting of the {method} work-precision stage (have: {})", have.join(", "));
+            let have: Vec<&str> = rows
+                .iter()
+                .filter(|r| r.method == method)
+                .map(|r| r.setting.as_str())
+                .collect();
+            anyhow::bail!(
+                "profile.{method} = `{setting}` is not a setting of the {method} work-precision stage (have: {})",
+                have.join(", ")
+            );
         };
         out.scalar(&format!("{method}_profile_error"), r.error);
         if r.error_se.is_finite() {
@@ -304,37 +418,88 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
     }
     // Wall times are measurements, not results: tables of their own, so `table` and the
     // scalars stay bit-identical across runs (as the work-precision stages do).
-    out.table("timing", polars::prelude::DataFrame::new_infer_height(vec![
-        text("method", &|r| r.method.to_string()),
-        text("setting", &|r| r.setting.clone()),
-        text("quantity", &|r| r.quantity.to_string()),
-        Column::new("wall_s".into(), fcol(&|r| r.wall_s)),
-    ])?);
-    out.table("profile", polars::prelude::DataFrame::new_infer_height(vec![
-        Column::from(PlSeries::new("method".into(), prof.iter().map(|(m, _)| m.to_string()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("setting".into(), prof.iter().map(|(_, r)| r.setting.clone()).collect::<Vec<_>>())),
-        Column::from(PlSeries::new("quantity".into(), prof.iter().map(|(_, r)| r.quantity.to_string()).collect::<Vec<_>>())),
-        Column::new("rel_error".into(), prof.iter().map(|(_, r)| r.error).collect::<Vec<f64>>()),
-        Column::new("rel_error_se".into(), prof.iter().map(|(_, r)| r.error_se).collect::<Vec<f64>>()),
-        Column::new("wall_s".into(), prof.iter().map(|(_, r)| r.wall_s).collect::<Vec<f64>>()),
-    ])?);
+    out.table(
+        "timing",
+        polars::prelude::DataFrame::new_infer_height(vec![
+            text("method", &|r| r.method.to_string()),
+            text("setting", &|r| r.setting.clone()),
+            text("quantity", &|r| r.quantity.to_string()),
+            Column::new("wall_s".into(), fcol(&|r| r.wall_s)),
+        ])?,
+    );
+    out.table(
+        "profile",
+        polars::prelude::DataFrame::new_infer_height(vec![
+            Column::from(PlSeries::new(
+                "method".into(),
+                prof.iter().map(|(m, _)| m.to_string()).collect::<Vec<_>>(),
+            )),
+            Column::from(PlSeries::new(
+                "setting".into(),
+                prof.iter().map(|(_, r)| r.setting.clone()).collect::<Vec<_>>(),
+            )),
+            Column::from(PlSeries::new(
+                "quantity".into(),
+                prof.iter().map(|(_, r)| r.quantity.to_string()).collect::<Vec<_>>(),
+            )),
+            Column::new(
+                "rel_error".into(),
+                prof.iter().map(|(_, r)| r.error).collect::<Vec<f64>>(),
+            ),
+            Column::new(
+                "rel_error_se".into(),
+                prof.iter().map(|(_, r)| r.error_se).collect::<Vec<f64>>(),
+            ),
+            Column::new(
+                "wall_s".into(),
+                prof.iter().map(|(_, r)| r.wall_s).collect::<Vec<f64>>(),
+            ),
+        ])?,
+    );
     // figure: error vs wall time per (method, quantity)
     let mut series = Vec::new();
     let mut keys: Vec<(&str, &str)> = rows.iter().map(|r| (r.method, r.quantity)).collect();
     keys.dedup();
     for (ci, (m, q)) in keys.iter().enumerate() {
-        let pts: Vec<&Row> = rows.iter().filter(|r| r.method == *m && r.quantity == *q && !r.reference && r.error > 0.0).collect();
-        let s = Series::new(format!("{} {q}", m.to_uppercase()), Style::Points, pts.iter().map(|r| (r.wall_s, r.error)).collect(), ci);
-        let s = if pts.iter().any(|r| r.error_se.is_finite()) { s.with_errors(pts.iter().map(|r| if r.error_se.is_finite() { r.error_se } else { 0.0 }).collect()) } else { s };
+        let pts: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.method == *m && r.quantity == *q && !r.reference && r.error > 0.0)
+            .collect();
+        let s = Series::new(
+            format!("{} {q}", m.to_uppercase()),
+            Style::Points,
+            pts.iter().map(|r| (r.wall_s, r.error)).collect(),
+            ci,
+        );
+        let s = if pts.iter().any(|r| r.error_se.is_finite()) {
+            s.with_errors(
+                pts.iter()
+                    .map(|r| if r.error_se.is_finite() { r.error_se } else { 0.0 })
+                    .collect(),
+            )
+        } else {
+            s
+        };
         series.push(s);
     }
     let note = format!("{n_sound} of {} Richardson triples sound", ord.len());
     let chart = Chart {
         legend: crate::report::plot::Legend::LowerLeft,
-        ..Chart::log_log("Work-precision atlas: relative error against wall time of one run".into(), footer(&ctx.profile, &note), "wall time of one run [s]", "|Q − Q_ref| / Q_ref", series)
+        ..Chart::log_log(
+            "Work-precision atlas: relative error against wall time of one run".into(),
+            footer(&ctx.profile, &note),
+            "wall time of one run [s]",
+            "|Q − Q_ref| / Q_ref",
+            series,
+        )
     };
     out.figure("figure", chart.to_svg()?);
-    let members = |m: &str| rows.iter().filter(|r| r.method == m).map(|r| r.members).fold(0.0, f64::max);
+    let members = |m: &str| {
+        rows.iter()
+            .filter(|r| r.method == m)
+            .map(|r| r.members)
+            .fold(0.0, f64::max)
+    };
     out.note(format!(
         "Error = |Q − Q_ref|/Q_ref against each stage's finest setting, Q an ensemble mean: ± standard error of the difference of means (members from perturbed starts: DEM {}, MPM {}, CD {}; 1 = a single deterministic run, no spread measured). Wall time: one run at the setting (DEM: one member's collapse plus its settling). Observed orders: {n_sound} of {} knob triples sound (table `orders`, with the reason for each rejection).",
         members("dem"), members("mpm"), members("cd"),
@@ -360,7 +525,11 @@ pub fn ensemble_error(v: &[f64], reference: &[f64]) -> (f64, f64, f64) {
     let stats = |x: &[f64]| {
         let n = x.len() as f64;
         let m = x.iter().sum::<f64>() / n;
-        let s2 = if x.len() > 1 { x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0) } else { f64::NAN };
+        let s2 = if x.len() > 1 {
+            x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)
+        } else {
+            f64::NAN
+        };
         (m, s2, n)
     };
     let ((m, s2, n), (mr, sr2, nr)) = (stats(v), stats(reference));
