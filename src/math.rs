@@ -8,7 +8,8 @@ pub type Vec2 = nalgebra::Vector2<Real>;
 /// 2×2 matrix (stresses, strain rates, deformation gradients in plane strain).
 pub type Mat2 = nalgebra::Matrix2<Real>;
 
-/// Standard gravity [m/s²]. The chapter never states g (figures.md: UNSPEC, standard value).
+/// Standard gravity [m/s²]. The chapter never states g (docs/definitions.md, Conventions:
+/// the standard value).
 pub const G: Real = 9.81;
 /// π, re-exported so physics code reads like the thesis.
 pub const PI: Real = std::f64::consts::PI;

@@ -29,7 +29,8 @@ fn chapter_step_is_audited_and_default_accepted() {
     ] {
         assert!(table.contains(key), "row {key} missing");
     }
-    // figures.md §c.1: min–min t_c = 7.19e-6 s with eq 4.5's γ; ours (ζ exact) is within 1 %
+    // docs/definitions.md c.1: min–min t_c = 7.19e-6 s with eq 4.5's γ; ours (ζ exact) is
+    // within 1 %
     let tc = pf.rows.iter().find(|r| r.name.contains("d_min pair")).unwrap().value;
     assert!((tc - 7.19e-6).abs() < 0.01 * 7.19e-6, "t_c = {tc}");
 }
@@ -62,7 +63,8 @@ fn explicit_rolling_damping_is_refused() {
     eprintln!("{msg}");
     assert!(msg.contains("rolling"), "{msg}");
     assert!(msg.contains("implicit"), "{msg}");
-    // the explicit limit is 2 I_eff / c_r ≈ 1.76e-9 s for a d_min pair (figures.md §c.2)
+    // the explicit limit is 2 I_eff / c_r ≈ 1.76e-9 s for a d_min pair (docs/definitions.md
+    // c.2)
     if let DemError::StepTooLarge { limit, .. } = err {
         assert!(limit < 2e-9 && limit > 1.5e-9, "{limit}");
     }

@@ -8,7 +8,7 @@
 //! the library, really leaves the grid. (The refused DEM rolling spring, forced past
 //! validation, does not diverge here: the rolling moment is capped at μ_r r f_n with
 //! μ_r ≤ 10, reached at θ_r ~ 1e-8 rad, so the unstable elastic branch is clipped — the
-//! refusal rests on the linear analysis of figures.md §c.2, as the other DEM rows.)
+//! refusal rests on the linear analysis of docs/definitions.md c.2, as the other DEM rows.)
 
 use std::path::{Path, PathBuf};
 

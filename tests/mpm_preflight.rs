@@ -18,7 +18,7 @@ fn table_4_3_step_passes_with_courant_0_017() {
 #[test]
 fn too_large_step_is_refused_with_the_limit() {
     let p = MpmParams::default();
-    // figures.md c.3: h/(c_p + v) = 2e-3/(34.27 + 1.97) = 5.52e-5 s.
+    // docs/definitions.md c.3: h/(c_p + v) = 2e-3/(34.27 + 1.97) = 5.52e-5 s.
     match preflight(&p, 1e-4, 1.97) {
         Err(MpmError::StepTooLarge { dt, limit, .. }) => {
             assert_eq!(dt, 1e-4);

@@ -1,8 +1,8 @@
 //! 1D elastic wave speed. An elastic column between frictionless bilateral walls (uniaxial
 //! strain) on a fixed base, loaded by gravity suddenly at t = 0. Every mode of the fixed–free
 //! bar starts from rest and peaks together at t = T/2 = 2H/c_p, c_p = √(M/ρ) with the
-//! plane-strain P-wave modulus M = E(1−ν)/((1+ν)(1−2ν)) (figures.md c.3: 34.27 m/s): the mean
-//! settlement reaches its first maximum there.
+//! plane-strain P-wave modulus M = E(1−ν)/((1+ν)(1−2ν)) (docs/definitions.md c.3:
+//! 34.27 m/s): the mean settlement reaches its first maximum there.
 
 use granrepro::mpm::{Axis, Grid, Model, MpmParams, Solver, State, Wall, particles};
 

@@ -1,4 +1,5 @@
-//! Failure-surface angle from the velocity field (figures.md D18), for grains or points.
+//! Failure-surface angle from the velocity field (docs/definitions.md D18), for grains or
+//! points.
 //!
 //! Bodies faster than `v_frac` · max|v| are moving, the others static. Inside the initial
 //! footprint (x ≤ L_0) the bodies are binned in horizontal slices of height `bin`; in a

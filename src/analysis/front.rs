@@ -1,4 +1,4 @@
-//! Flow front and height of the main mass (figures.md D01, D03), for any set of round
+//! Flow front and height of the main mass (docs/definitions.md D01, D03), for any set of round
 //! bodies: DEM grains (half-size = radius) or MPM material points (half-size = GIMP
 //! half-width l_p).
 //!
@@ -331,7 +331,7 @@ mod tests {
     }
 }
 
-/// Run-out duration t_f (figures.md D10): the first time after which the front stays
+/// Run-out duration t_f (docs/definitions.md D10): the first time after which the front stays
 /// within `tol` of its final value, t_f = min{t : L(t') ≥ L_f − tol for all t' ≥ t}.
 /// `t` and `l` are the sampled times and front positions (same length, time order).
 pub fn stop_time(t: &[f64], l: &[f64], tol: f64) -> f64 {

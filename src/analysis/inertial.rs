@@ -1,5 +1,5 @@
-//! Inertial number from coarse-grained fields (figures.md D08), the same for grains and
-//! points: the bodies are binned on a square grid of side `cell`; per cell the
+//! Inertial number from coarse-grained fields (docs/definitions.md D08), the same for
+//! grains and points: the bodies are binned on a square grid of side `cell`; per cell the
 //! mass-weighted velocity, the strain rate by central differences between the four
 //! neighbours (cells whose four neighbours all hold mass; free-surface and edge cells have
 //! no two-sided gradient and are left out), γ̇ = √(2 D':D') with the 2D deviator

@@ -1,6 +1,7 @@
-//! Method-agnostic analysis of a pile under horizontal excitation (figures.md D01, D10–D16,
-//! D19, D21): the initial velocity field, the sampled time series every solver records, the
-//! stopping rule, and the per-run summary (run-out, duration, transient and decay times).
+//! Method-agnostic analysis of a pile under horizontal excitation (docs/definitions.md D01,
+//! D10–D16, D19, D21): the initial velocity field, the sampled time series every solver
+//! records, the stopping rule, and the per-run summary (run-out, duration, transient and
+//! decay times).
 //!
 //! Units: SI inside; the summary also carries the chapter's pile units — lengths / d,
 //! times / √(d/g), energies / (m g d) per grain — with d = 2.455 mm, m = 0.0123 kg (D21).
@@ -72,7 +73,7 @@ pub struct Sample {
     pub erot: f64,
 }
 
-/// When a pile run stops (figures.md SC-PILE: "E_k < 1e-4 E_0 and L unchanged for
+/// When a pile run stops (docs/definitions.md SC-PILE: "E_k < 1e-4 E_0 and L unchanged for
 /// 10 √(d/g)"), in the chapter's units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -484,15 +485,15 @@ pub fn sample_run<S, E>(
     })
 }
 
-/// Cavity behind the mass next to the left wall (figs 4.31, 4.42; figures.md "empty cells of
-/// the pile envelope adjacent to x = 0"), as an area [m²]: with the free-surface profile
-/// top(x) (highest body edge per bin of width `bin`, 0 for empty bins) over x ∈ [0, l], the
-/// envelope E(x) = max_{x' ≥ x} top(x') is the surface seen from the right; the cavity is
-/// Σ (E − top)·bin over the bins left of the highest point. A pile falling away from the
-/// wall (monotone surface) has none; a mass pushed away from the wall leaves one.
-/// Only bodies touching another body or the base count (a grain in flight, ahead of or
-/// above the mass, would otherwise raise the envelope over empty air); `extra` [m] widens
-/// "touching" (MPM: points sharing grid nodes are one continuum).
+/// Cavity behind the mass next to the left wall (figs 4.31, 4.42; docs/definitions.md
+/// fig4-31: "empty cells of the pile envelope next to x = 0"), as an area [m²]: with the
+/// free-surface profile top(x) (highest body edge per bin of width `bin`, 0 for empty bins)
+/// over x ∈ [0, l], the envelope E(x) = max_{x' ≥ x} top(x') is the surface seen from the
+/// right; the cavity is Σ (E − top)·bin over the bins left of the highest point. A pile
+/// falling away from the wall (monotone surface) has none; a mass pushed away from the wall
+/// leaves one. Only bodies touching another body or the base count (a grain in flight,
+/// ahead of or above the mass, would otherwise raise the envelope over empty air); `extra`
+/// [m] widens "touching" (MPM: points sharing grid nodes are one continuum).
 pub fn cavity_area(x: &[f64], y: &[f64], half: &[f64], l: f64, bin: f64, extra: f64) -> f64 {
     let keep = touching(x, y, half, extra);
     let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, k)| **k).map(|(a, _)| *a).collect() };

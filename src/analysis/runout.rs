@@ -1,5 +1,5 @@
 //! Per-run quantities of a column collapse from its time series and end states
-//! (figures.md D05, D10, D17; §4.2 phases), shared by DEM and MPM.
+//! (docs/definitions.md D05, D10, D17; §4.2 phases), shared by DEM and MPM.
 
 /// Index of the largest value (first on ties; None if empty) — t_KEmax of D05.
 pub fn argmax(v: &[f64]) -> Option<usize> {
@@ -60,9 +60,10 @@ pub fn mu_e_staron_hinch_law(mu: f64) -> f64 {
     0.425 * mu.powf(0.2)
 }
 
-/// Free-surface profile of a deposit (figures.md fig4-20, fig4-12): bins of width `bin`
-/// from x = 0 to the farthest edge; each bin's height is the highest top edge (y + half)
-/// of the bodies whose centre falls in it (0 for an empty bin). Returns (bin centre, h).
+/// Free-surface profile of a deposit (docs/definitions.md fig4-20, fig4-12): bins of width
+/// `bin` from x = 0 to the farthest edge; each bin's height is the highest top edge (y +
+/// half) of the bodies whose centre falls in it (0 for an empty bin). Returns (bin centre,
+/// h).
 pub fn surface_profile(x: &[f64], y: &[f64], half: &[f64], bin: f64) -> Vec<(f64, f64)> {
     assert!(bin > 0.0, "surface_profile: bin must be positive");
     let x_end = x.iter().zip(half).map(|(a, h)| a + h).fold(0.0, f64::max);

@@ -1,9 +1,9 @@
-//! When a collapse run has stopped flowing (figures.md D10), one rule for DEM and MPM:
-//! after `t_min`, the kinetic energy is below `ke_ratio` · E_p(0) AND neither the front L
-//! nor the height H moved by more than `front_speed` · `window` (in d̄ and τ_c units) over
-//! the last `window`; the run ends at `t_max` whatever happens. DEM kinetic energy is
-//! translational + rotational; the MPM's is the grid kinetic energy (the point energy
-//! carries the FLIP velocity noise of a deposit at rest).
+//! When a collapse run has stopped flowing (docs/definitions.md D10), one rule for DEM and
+//! MPM: after `t_min`, the kinetic energy is below `ke_ratio` · E_p(0) AND neither the
+//! front L nor the height H moved by more than `front_speed` · `window` (in d̄ and τ_c
+//! units) over the last `window`; the run ends at `t_max` whatever happens. DEM kinetic
+//! energy is translational + rotational; the MPM's is the grid kinetic energy (the point
+//! energy carries the FLIP velocity noise of a deposit at rest).
 
 use serde::{Deserialize, Serialize};
 

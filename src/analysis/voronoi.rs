@@ -1,4 +1,4 @@
-//! Local packing fraction by Voronoi cells (figures.md D09), for grains.
+//! Local packing fraction by Voronoi cells (docs/definitions.md D09), for grains.
 //!
 //! Plain (not radical) Voronoi cells of the grain centres, each clipped to the reach of its
 //! grain: the cell of grain i is the square of half-side R_i = r_i + `reach` around its

@@ -1,5 +1,5 @@
-//! Benchmark: the deposit of the Siconos reference script (`shared/bench/siconos`,
-//! `siconos_disks.py NCOL NROW NSTEPS`): NCOL × NROW disks, r ∈ [0.4, 0.6] m in 8 classes,
+//! Benchmark: the deposit of the Siconos reference script (`bench/siconos/deposit.py
+//! NCOL NROW NSTEPS`): NCOL × NROW disks, r ∈ [0.4, 0.6] m in 8 classes,
 //! ρ = 2600, μ = 0.4, ε = 0, θ = ½, h = 2e-3 s, tolerance 1e-4, dropped from a lattice of
 //! pitch 1.22 m into a box of width 1.22·NCOL m. Everything in the steps is timed
 //! (detection, solve, update, ledger, watchdog), as Siconos' wall time includes its own.

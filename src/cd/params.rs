@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CdParams {
-    /// Time step h [s]. UNSPEC; figures.md c.5 rule: h ≤ 0.02 d_min / v_max, which also
-    /// bounds the one-step interpenetration of an impact by h v_max / 2 ≤ 1 % d_min.
+    /// Time step h [s]. UNSPEC; docs/definitions.md c.5 rule: h ≤ 0.02 d_min / v_max, which
+    /// also bounds the one-step interpenetration of an impact by h v_max / 2 ≤ 1 % d_min.
     /// Default 1e-4 s: v_max ≈ 0.39 m/s for the pile grains (d_min = 1.964 mm).
     pub dt: Real,
     /// θ of the Moreau–Jean scheme, x⁺ = x⁻ + h((1−θ)v⁻ + θv⁺), in [0.5, 1]. Default 0.5:
@@ -26,12 +26,12 @@ pub struct CdParams {
     /// Gravity [m/s²] (0 in the periodic shear cell).
     pub gravity: Real,
     /// Grain–grain Coulomb friction μ. Chapter: "internal friction coefficient of 0.4 between
-    /// grains" (pile DEM, figures.md b.4 proposes the same for CD).
+    /// grains" (pile DEM, docs/definitions.md b.4 takes the same for CD).
     pub friction: Real,
     /// Grain–wall Coulomb friction. UNSPEC: the grain value.
     pub wall_friction: Real,
-    /// Normal restitution ε_n (Newton, Moreau's form). Baseline 0 (figures.md b.4; the
-    /// chapter states its CD pile results do not depend on restitution).
+    /// Normal restitution ε_n (Newton, Moreau's form). Baseline 0 (docs/definitions.md b.4;
+    /// the chapter states its CD pile results do not depend on restitution).
     pub restitution_n: Real,
     /// Tangential restitution ε_t. Baseline 0 (same reason).
     pub restitution_t: Real,
@@ -47,8 +47,8 @@ pub struct CdParams {
     /// accelerations within the step.
     pub alert_fraction: Real,
     /// NLGS convergence tolerance on the quadratic-mean relative impulse change of one
-    /// sweep, ‖ΔP‖₂/‖P‖₂ (LMGC90's "Quad"-like norm). figures.md c.5: "mean force change <
-    /// 1e-4".
+    /// sweep, ‖ΔP‖₂/‖P‖₂ (LMGC90's "Quad"-like norm). docs/definitions.md c.5: "mean force
+    /// change < 1e-4".
     pub tolerance: Real,
     /// Second convergence test, checked once the first passes: the natural-map residual of
     /// the local Signorini–Coulomb problems (De Saxcé's modified velocity, Siconos-like),
@@ -119,7 +119,7 @@ impl CdParams {
             ""
         };
         Err(format!(
-            "CD step {dt:.3e} s moves a grain at v_max = {v_max:.3} m/s by {travel:.3e} m = {:.2} d_min per step{through}; binding time scale: alert-distance crossing time alert/(2 v_max) = {limit:.3e} s (alert = {} d_min = {alert:.3e} m); limit dt <= {limit:.3e} s; fix: dt <= {:.3e} s (figures.md c.5: 0.02 d_min/v_max = {:.3e} s) or alert_fraction >= {:.3}",
+            "CD step {dt:.3e} s moves a grain at v_max = {v_max:.3} m/s by {travel:.3e} m = {:.2} d_min per step{through}; binding time scale: alert-distance crossing time alert/(2 v_max) = {limit:.3e} s (alert = {} d_min = {alert:.3e} m); limit dt <= {limit:.3e} s; fix: dt <= {:.3e} s (docs/definitions.md c.5: 0.02 d_min/v_max = {:.3e} s) or alert_fraction >= {:.3}",
             travel / d_min,
             self.alert_fraction,
             0.9 * limit,

@@ -14,7 +14,7 @@ use crate::math::{PI, Real};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// The lattice drop of `siconos_disks.py`.
+/// The lattice drop of the Siconos reference script `bench/siconos/deposit.py`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DropSpec {
@@ -190,7 +190,8 @@ pub struct ImpactResult {
 }
 
 /// Remove the right wall of a settled deposit and give the grains the chapter's gradient
-/// excitation v_x = v0 (y_max − y)/y_max (figures.md SC-PILE); run for `time` seconds.
+/// excitation v_x = v0 (y_max − y)/y_max (docs/definitions.md SC-PILE); run for `time`
+/// seconds.
 pub fn impact(
     state: &State,
     walls: &[Wall],
@@ -231,7 +232,8 @@ pub fn impact(
 
 /// Excite a pile at rest (grains from the DEM deposit: the same geometry seeds every
 /// method) with `profile` carrying `e0` [J/m] and run it with the adaptive step
-/// h = min(`params.dt`, 0.4 alert / v_max) until `stop` (figures.md SC-PILE, PILE-CD).
+/// h = min(`params.dt`, 0.4 alert / v_max) until `stop` (docs/definitions.md SC-PILE,
+/// PILE-CD).
 pub fn run_excited_pile(
     pile: &State,
     params: &CdParams,

@@ -46,7 +46,8 @@ pub fn check_motion(
     Ok(())
 }
 
-/// The figures.md c.5 step rule h ≤ 0.02 d_min / v_max, for a stage to state its choice.
+/// The docs/definitions.md c.5 step rule h ≤ 0.02 d_min / v_max, for a stage to state its
+/// choice.
 pub fn recommended_dt(d_min: Real, v_max: Real) -> Real {
     0.02 * d_min / v_max
 }

@@ -1,5 +1,5 @@
-//! Periodic plane shear in CD → μ*(I) (figures.md SC-SHEAR-CD, stage C3; chapter: "Periodic
-//! shear tests using CD … reveals a macroscopic friction coefficient of 0.22").
+//! Periodic plane shear in CD → μ*(I) (docs/definitions.md SC-SHEAR-CD, stage C3; chapter:
+//! "Periodic shear tests using CD … reveals a macroscopic friction coefficient of 0.22").
 //!
 //! Cell: periodic along x (period L_x), no gravity, between two rough layers of glued grains
 //! (pitch `layer_pitch`·d̄, gaps narrower than a grain). The bottom layer is a fixed clump;
@@ -11,9 +11,9 @@
 //!
 //! The sample is compacted once under p (plate speed capped, no shear), then each inertial
 //! number starts from that state (points run in parallel, each sequential: deterministic).
-//! Step per point, figures.md c.5: h = 0.02 d_min / max(v, v_floor), v_floor = 0.1 √(p/ρ)
-//! (the velocity fluctuations of slow dense flow), so every point takes about the same
-//! number of steps per unit strain.
+//! Step per point, docs/definitions.md c.5: h = 0.02 d_min / max(v, v_floor), v_floor = 0.1
+//! √(p/ρ) (the velocity fluctuations of slow dense flow), so every point takes about the
+//! same number of steps per unit strain.
 
 use crate::cd::error::CdError;
 use crate::cd::params::CdParams;
@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// Shear-test settings. Everything is UNSPEC in the chapter (figures.md SC-SHEAR-CD).
+/// Shear-test settings. Everything is UNSPEC in the chapter (docs/definitions.md SC-SHEAR-CD).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ShearCdParams {

@@ -1,6 +1,6 @@
-//! Benchmark: the LAMMPS reference scene of `shared/bench/lammps` (2924 disks, diameters
+//! Benchmark: the LAMMPS reference scene of `bench/lammps/column.lmp` (2924 disks, diameters
 //! uniform in [0.92, 1.38] mm, hex lattice of pitch 1.38 mm in L_0 = 61.4 mm, settled,
-//! right wall removed, Δt = 1e-6 s as in `common.lmp`), timed over `steps` steps of the
+//! right wall removed, Δt = 1e-6 s as there), timed over `steps` steps of the
 //! collapse. Set-up (lattice + soft settling, ≈ 5 s) is not timed.
 //!
 //! Cases: `Full` = table 4.2 physics with implicit rolling resistance and the ledger;

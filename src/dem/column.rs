@@ -1,7 +1,7 @@
-//! Column-collapse driver (figures.md SC-COL, D01–D07): open the gate of a prepared column
-//! and run with a time series (t, L, H via `crate::analysis::front`, energies, ledger) and
-//! snapshots at requested times, until a stop criterion. Reports wall time per run for the
-//! work-precision sweep.
+//! Column-collapse driver (docs/definitions.md SC-COL, D01–D07): open the gate of a
+//! prepared column and run with a time series (t, L, H via `crate::analysis::front`,
+//! energies, ledger) and snapshots at requested times, until a stop criterion. Reports wall
+//! time per run for the work-precision sweep.
 
 use crate::analysis::cloud::Cloud;
 use crate::analysis::front::{Body, Link, front, lengths_for_gaps};

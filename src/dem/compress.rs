@@ -1,6 +1,6 @@
-//! Laterally confined uniaxial compression (figures.md SC-COMP-DEM, stage C2): a settled
-//! column between rigid frictional side walls is loaded by a top plate moving down at a
-//! constant strain rate; the slope of plate stress against strain is the modulus the
+//! Laterally confined uniaxial compression (docs/definitions.md SC-COMP-DEM, stage C2): a
+//! settled column between rigid frictional side walls is loaded by a top plate moving down
+//! at a constant strain rate; the slope of plate stress against strain is the modulus the
 //! chapter calls E = 1.98e6 Pa. Under lateral confinement that slope is the constrained
 //! modulus M (I12), so E = M(1+ν)(1−2ν)/(1−ν) is reported too.
 //!

@@ -1,6 +1,6 @@
-//! Energy ledger (figures.md D06, D07): state energies on demand and cumulative work of
-//! every dissipative term, so that E_0 + W_ext = E_p + E_k + E_rot + elastic + dissipated
-//! can be checked.
+//! Energy ledger (docs/definitions.md D06, D07): state energies on demand and cumulative
+//! work of every dissipative term, so that E_0 + W_ext = E_p + E_k + E_rot + elastic +
+//! dissipated can be checked.
 //!
 //! Dissipation is booked per contact as "energy taken from the grains by the force minus
 //! the change of what its spring stores" (exact bookkeeping of the discrete springs), and

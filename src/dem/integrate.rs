@@ -4,8 +4,8 @@
 //! the explicit moments (springs, friction, and the rolling dashpot when it is explicit).
 //!
 //! Implicit rolling dashpot ([`RollingDamping::Implicit`]): table 4.2's c_r = 0.1 N·m·s
-//! relaxes a relative spin in I/c_r ≈ 1e-9 s (figures.md §c.2), 100–1000× below any usable
-//! step, so it is integrated by backward Euler. Two ways were open: solve
+//! relaxes a relative spin in I/c_r ≈ 1e-9 s (docs/definitions.md c.2), 100–1000× below any
+//! usable step, so it is integrated by backward Euler. Two ways were open: solve
 //! (I + hC_L)ω⁺ = Iω* with C_L the dashpot Laplacian of the contact network, or apply
 //! pairwise backward-Euler impulses contact by contact. We take the pairwise impulses, in a
 //! fixed order (pairs by (i, j), then walls by (wall, grain)), one sweep per half kick:

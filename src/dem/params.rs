@@ -1,8 +1,8 @@
 //! DEM parameters. `Default` = the chapter's table 4.2 (column DEM, §4.2.1), with every
-//! UNSPEC value chosen here and justified in its field doc (figures.md §b.1, §c).
+//! UNSPEC value chosen here and justified in its field doc (docs/definitions.md b.1, c.1–c.6).
 //!
 //! All quantities are SI, 2D disks of unit (1 m) thickness: masses in kg per metre,
-//! stiffnesses in N/m per metre of thickness (figures.md §b.0).
+//! stiffnesses in N/m per metre of thickness (docs/definitions.md b.0).
 
 use crate::math::Real;
 use crate::validate::{Checker, Issue};
@@ -135,7 +135,7 @@ impl Default for ContactParams {
     }
 }
 
-/// How the rolling dashpot is integrated (figures.md §c.2: I/c_r ≈ 1e-9 s).
+/// How the rolling dashpot is integrated (docs/definitions.md c.2: I/c_r ≈ 1e-9 s).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RollingDamping {
@@ -229,13 +229,14 @@ impl Default for WatchdogParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DemParams {
-    /// Grain density ρ_s [kg/m³]; m = ρπr² per metre, I = ½mr². UNSPEC (figures.md §b.0):
-    /// 2500, glass.
+    /// Grain density ρ_s [kg/m³]; m = ρπr² per metre, I = ½mr². UNSPEC (docs/definitions.md
+    /// b.0): 2500, glass.
     pub density: Real,
     /// Gravity magnitude g [m/s²], acting along −y. UNSPEC: 9.81.
     pub gravity: Real,
-    /// Time step [s]. UNSPEC; 1.5e-7 s = t_c(min pair)/48 (figures.md §c.1 proposal),
-    /// which resolves ε = 0.75 to < 1 % and is below every explicit limit in §c.
+    /// Time step [s]. UNSPEC; 1.5e-7 s = t_c(min pair)/48 (docs/definitions.md c.1),
+    /// which resolves ε = 0.75 to < 1 % and is below every explicit limit of
+    /// docs/definitions.md c.1–c.2.
     pub dt: Real,
     /// Grain–grain contact law.
     pub grain: ContactParams,
@@ -271,8 +272,9 @@ impl Default for DemParams {
 
 impl DemParams {
     /// "Quick" profile: k_n, k_t, k_r softened by `factor` (< 1) and Δt divided by
-    /// √factor, so every time scale of §c keeps the same steps-per-period ratio. k_r is
-    /// scaled with k_n to keep the rolling/translational period ratio of the chapter.
+    /// √factor, so every time scale of docs/definitions.md c.1–c.2 keeps the same
+    /// steps-per-period ratio. k_r is scaled with k_n to keep the rolling/translational
+    /// period ratio of the chapter.
     pub fn softened(&self, factor: Real) -> Self {
         let mut p = self.clone();
         p.grain.kn *= factor;
@@ -338,7 +340,7 @@ mod tests {
             (1.6e8, 4e8, 0.53, 0.466)
         );
         assert_eq!((p.rolling.kr, p.rolling.cr), (1.0e3, 0.1));
-        // eq 4.5: γ = 0.09119 for ε = 0.75 (figures.md §c)
+        // eq 4.5: γ = 0.09119 for ε = 0.75 (docs/definitions.md c.1)
         assert!((gamma_from_restitution(0.75) - 0.09119).abs() < 1e-5);
         // the exact no-attraction ratio reproduces ε
         let z = damping_ratio(0.75, DampingModel::NoAttractionExact);

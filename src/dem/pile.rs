@@ -1,8 +1,9 @@
-//! Pile preparation (figures.md SC-PILE, stage P5) and the DEM pile run under a horizontal
-//! excitation (R7/R8). Preparation follows the chapter: grains are poured into a box of
-//! given width, the right-hand wall is shifted far to the right, and the pile relaxes until
-//! every grain is at rest (stopping criterion: (E_k + E_rot)/E_p < `settle_ratio` and the
-//! fastest grain slower than `settle_speed` √(g d̄), checked every 1 ms of simulated time).
+//! Pile preparation (docs/definitions.md SC-PILE, stage P5) and the DEM pile run under a
+//! horizontal excitation (R7/R8). Preparation follows the chapter: grains are poured into a
+//! box of given width, the right-hand wall is shifted far to the right, and the pile
+//! relaxes until every grain is at rest (stopping criterion: (E_k + E_rot)/E_p
+//! < `settle_ratio` and the fastest grain slower than `settle_speed` √(g d̄), checked every
+//! 1 ms of simulated time).
 
 use crate::analysis::front::{Body, Link, front};
 use crate::analysis::pile::{

@@ -1,11 +1,12 @@
-//! Pre-flight stability audit (figures.md §c.1, §c.2): every time scale of the scene
+//! Pre-flight stability audit (docs/definitions.md c.1, c.2): every time scale of the scene
 //! against the step, the explicit limit of each, and a refusal naming the binding one.
 //!
 //! Explicit limit of a damped oscillator under velocity Verlet:
-//! Δt_crit = (2/ω₀)(√(1+ξ²) − ξ) (§c). Multi-contact estimates use z = 4 contacts on the
-//! smallest grain (§c.1). With the implicit rolling dashpot the dashpot itself has no
-//! limit and the rolling spring's limit follows [`implicit_rolling_limit`] (2/ω_r without
-//! damping, none for the over-damped table 4.2 values).
+//! Δt_crit = (2/ω₀)(√(1+ξ²) − ξ) (docs/definitions.md c.1). Multi-contact estimates use
+//! z = 4 contacts on the smallest grain (docs/definitions.md c.1). With the implicit
+//! rolling dashpot the dashpot itself has no limit and the rolling spring's limit follows
+//! [`implicit_rolling_limit`] (2/ω_r without damping, none for the over-damped table 4.2
+//! values).
 
 use crate::dem::error::DemError;
 use crate::dem::params::{DemParams, RollingDamping};
@@ -15,7 +16,8 @@ use std::fmt;
 
 /// Contacts per grain assumed by the multi-contact estimates (dense random disks).
 pub const Z_MULTI: Real = 4.0;
-/// Fewer steps than this per collision time gets a warning (ε accuracy; §c.1).
+/// Fewer steps than this per collision time gets a warning (ε accuracy; docs/definitions.md
+/// c.1).
 pub const MIN_STEPS_PER_COLLISION: Real = 20.0;
 
 /// One time scale of the scene.

@@ -1,4 +1,4 @@
-//! Sample preparation (chapter 3 "Particle assembling methods", figures.md SC-COL):
+//! Sample preparation (chapter 3 "Particle assembling methods", docs/definitions.md SC-COL):
 //! ballistic deposition into a box with a constant drop height between layers, settling
 //! to E_k/E_p < 1e-6, trimming to L_0 × H_0; monodisperse hexagonal-lattice columns;
 //! packing-fraction measurement; loose/dense control through the deposition friction.
@@ -33,7 +33,7 @@ impl SplitMix64 {
 }
 
 /// Local inverse-CDF sampler of diameters uniform by area (volume) fraction on
-/// [d_min, d_max] (number pdf ∝ d⁻², figures.md SC-PSD): d = 1/(1/d_min − U(1/d_min −
+/// [d_min, d_max] (number pdf ∝ d⁻², docs/definitions.md SC-PSD): d = 1/(1/d_min − U(1/d_min −
 /// 1/d_max)). For tests and benches only; the pipeline passes the PSD stage's radii.
 pub fn diameters_uniform_by_area(n: usize, d_min: Real, d_max: Real, seed: u64) -> Vec<Real> {
     let mut rng = SplitMix64(seed);
@@ -362,7 +362,8 @@ fn settled_column(mut w: World, l0: Real, ratio: Real, max_time: Real) -> Result
 }
 
 /// Monodisperse hexagonal lattice of diameter `d` filling L_0 × H_0 (touching grains,
-/// rows alternately offset by d/2), settled under gravity (figures.md HEX: d = 1.15 mm).
+/// rows alternately offset by d/2), settled under gravity (docs/definitions.md SC-PSD,
+/// HEX: d = 1.15 mm).
 pub fn hex_column(l0: Real, h0: Real, d: Real, run: &DemParams, max_settle_time: Real) -> Result<Column, DemError> {
     let s = hex_lattice(l0, h0, d, run.density);
     finish_column(s, l0, run, 1e-6, max_settle_time)
@@ -391,7 +392,7 @@ pub fn hex_lattice(l0: Real, h0: Real, d: Real, density: Real) -> State {
 }
 
 /// Column of `radii` placed on a loose lattice of pitch d_max (no settling; LAMMPS bench
-/// scene `settle.lmp`: hex lattice of spacing 1.38 mm inside L_0).
+/// scene `bench/lammps/column.lmp`: hex lattice of spacing 1.38 mm inside L_0).
 pub fn lattice_column(radii: &[Real], l0: Real, pitch: Real, density: Real) -> State {
     let r_max = radii.iter().cloned().fold(0.0, Real::max);
     let dy = pitch * (3.0 as Real).sqrt() / 2.0;

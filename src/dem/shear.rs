@@ -1,6 +1,6 @@
-//! Periodic simple-shear test for the critical-state friction angle (figures.md SC-SHEAR-DEM,
-//! stage C1; chapter §4.2.1: 1078 grains, periodic sides, fixed rough grain layers at top
-//! and bottom, normal pressure P and velocity v applied to the top layer).
+//! Periodic simple-shear test for the critical-state friction angle (docs/definitions.md
+//! SC-SHEAR-DEM, stage C1; chapter §4.2.1: 1078 grains, periodic sides, fixed rough grain
+//! layers at top and bottom, normal pressure P and velocity v applied to the top layer).
 //!
 //! Cell: periodic in x (period L_x), no gravity. Bottom layer: fixed grains. Top layer:
 //! grains moving as one rigid body with horizontal velocity v and a vertical velocity that

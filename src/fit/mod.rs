@@ -1,9 +1,9 @@
-//! Power-law fits on log–log axes (figures.md D23): ordinary least squares of log10 y on
-//! log10 x, reporting the slope ± one standard error — "the error on the exponent
-//! represents the error due to the linear fit on the logarithmic scale", as the chapter
-//! quotes its ± values. Two-regime fits estimate the break point by minimising the total
-//! residual over every admissible split; the branches are fitted separately and not forced
-//! to meet (figures.md I4).
+//! Power-law fits on log–log axes (docs/definitions.md D23): ordinary least squares of
+//! log10 y on log10 x, reporting the slope ± one standard error — "the error on the
+//! exponent represents the error due to the linear fit on the logarithmic scale", as the
+//! chapter quotes its ± values. Two-regime fits estimate the break point by minimising the
+//! total residual over every admissible split; the branches are fitted separately and not
+//! forced to meet (docs/definitions.md I4).
 
 /// A single power law y = c·x^n.
 #[derive(Debug, Clone, Copy, PartialEq)]

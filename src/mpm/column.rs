@@ -1,4 +1,4 @@
-//! Granular column collapse with MPM (figures.md SC-COL, COL-MPM-MC/-MUI; fig4-04).
+//! Granular column collapse with MPM (docs/definitions.md SC-COL, COL-MPM-MC/-MUI; fig4-04).
 //!
 //! Geometry: the DEM column size (I11): area A = 3.9e-3 m², L_0 = √(A/a), H_0 = a L_0; L_0 is
 //! snapped to whole cells (the gate must be a grid line) and H_0 = a L_0 to whole point
@@ -28,7 +28,7 @@ use crate::analysis::inertial::{Grain, coarse_grained};
 use crate::analysis::stop::{StopRule, Verdict};
 use crate::math::Real;
 
-/// Column area of the DEM columns (figures.md SC-COL: ≈3000 grains, φ ≈ 0.8) [m²].
+/// Column area of the DEM columns (docs/definitions.md SC-COL: ≈3000 grains, φ ≈ 0.8) [m²].
 pub const DEM_COLUMN_AREA: Real = 3.9e-3;
 
 /// Column geometry.
@@ -54,7 +54,7 @@ impl ColumnSpec {
     pub fn aspect(&self) -> Real {
         self.h0 / self.l0
     }
-    /// τ_c = √(H_0/g) [s] (figures.md I14).
+    /// τ_c = √(H_0/g) [s] (docs/definitions.md I14).
     pub fn tau_c(&self, g: Real) -> Real {
         (self.h0 / g).sqrt()
     }
@@ -196,7 +196,7 @@ pub struct CollapseOptions {
     pub stop_ke_ratio: Real,
     /// Also stop when the front is still: L and H moved less than `still_tol` over the last
     /// `still_tau` τ_c while E_k,grid < `still_ke_ratio` × E_p(0). Defaults: 1 τ_c,
-    /// 0.5 d̄ = 0.575 mm (figures.md D10), 1e-3.
+    /// 0.5 d̄ = 0.575 mm (docs/definitions.md D10), 1e-3.
     pub still_tau: Real,
     /// See `still_tau` [m].
     pub still_tol: Real,
@@ -282,10 +282,10 @@ pub struct Sample {
     pub inertial_cg: crate::analysis::inertial::Stats,
 }
 
-/// Inertial number I = γ̇ d̄/√(p/ρ_s) over the points at one time (figures.md D08, fig4-15):
-/// γ̇ from the point's last velocity gradient, p = −tr σ/3, capped at `material.i_max`.
-/// "Flowing" = γ̇ > 1e-3 √(g/d̄) and p > 0 (points at the Mohr–Coulomb apex, stress free, have
-/// no defined I and are counted in `stress_free_fraction` instead).
+/// Inertial number I = γ̇ d̄/√(p/ρ_s) over the points at one time (docs/definitions.md D08,
+/// fig4-15): γ̇ from the point's last velocity gradient, p = −tr σ/3, capped at
+/// `material.i_max`. "Flowing" = γ̇ > 1e-3 √(g/d̄) and p > 0 (points at the Mohr–Coulomb
+/// apex, stress free, have no defined I and are counted in `stress_free_fraction` instead).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct InertialStats {
     /// Mass-weighted mean of I over flowing points [-] (0 if none).
@@ -602,7 +602,7 @@ pub fn mass_quantile_x(state: &State, q: Real) -> Real {
     xm.last().map(|v| v.0).unwrap_or(0.0)
 }
 
-/// Expected largest speed of a column collapse, √(2 g H_0) (figures.md c.3) [m/s].
+/// Expected largest speed of a column collapse, √(2 g H_0) (docs/definitions.md c.3) [m/s].
 pub fn expected_v_max(spec: &ColumnSpec, g: Real) -> Real {
     (2.0 * g * spec.h0).sqrt()
 }

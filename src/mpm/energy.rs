@@ -1,4 +1,5 @@
-//! Energies of a state (figures.md D06, D07), summed in a fixed order (deterministic).
+//! Energies of a state (docs/definitions.md D06, D07), summed in a fixed order
+//! (deterministic).
 
 use super::material::Elastic;
 use super::particles::Point;

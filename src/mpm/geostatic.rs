@@ -1,5 +1,5 @@
 //! Geostatic initial stress (chapter 4 §4.2.1: "initial vertical effective stress … before
-//! the collapse stage"; method UNSPEC, figures.md SC-COL proposal).
+//! the collapse stage"; method UNSPEC, docs/definitions.md SC-COL).
 //!
 //! Method chosen: gravity loading of the stress-free points with the walls in place (the
 //! column additionally behind a frictionless roller gate), Cundall local non-viscous damping

@@ -8,7 +8,7 @@
 //!   tension cut-off. With c = 0 the apex is the stress-free state; no regularisation is used.
 //! - μ(I): the MC friction of each point is set each step from its inertial number
 //!   I = γ̇ d̄/√(p/ρ_s), γ̇ = √(2 D':D') (3D deviator of the plane-strain rate), p = −tr σ/3
-//!   (three-dimensional mean stress of the plane-strain state; figures.md D08).
+//!   (three-dimensional mean stress of the plane-strain state; docs/definitions.md D08).
 //!
 //! Tension positive throughout; principal values sorted σ1 ≥ σ2 ≥ σ3 (σ3 most compressive).
 //! Yield function f = (σ1 − σ3) + (σ1 + σ3) sin φ − 2c cos φ.

@@ -11,7 +11,7 @@
 //! - Mohr–Coulomb with c = 0, ψ = 0, Rankine tension cut-off at 0 Pa; no regularisation.
 //! - Elastic moduli scale with the current density (E V_0/V): constant wave speed, so dilated
 //!   points at a thinning front cannot break the CFL limit.
-//! - μ(I): μ_min = tan 22.2° (figures.md I6), b = 1, d̄ = 1.15 mm, ρ_s = 2500 kg/m³,
+//! - μ(I): μ_min = tan 22.2° (docs/definitions.md I6), b = 1, d̄ = 1.15 mm, ρ_s = 2500 kg/m³,
 //!   p = −tr σ/3, I capped at 1; Jop et al. (2006) form available.
 //! - Walls: unilateral Coulomb constraint on nodal velocities (friction 0.466) on the nodes on
 //!   and beyond x = 0 and y = 0.

@@ -1,4 +1,4 @@
-//! Parameters of the MPM solver (figures.md §b.2, chapter 4 table 4.3).
+//! Parameters of the MPM solver (docs/definitions.md b.2, chapter 4 table 4.3).
 //!
 //! `Default` is table 4.3: E = 1.98e6 Pa, ν = 0.22, φ = 22.2°, ψ = 0, ρ = 1925 kg/m³,
 //! wall/base friction 0.466, cell 2 mm, 16 PPC, Δt = 1e-6 s. Friction angle and modulus are
@@ -63,10 +63,10 @@ pub enum Model {
     /// Mohr–Coulomb, perfectly plastic, φ = `material.friction_deg`, ψ = `material.dilation_deg`.
     MohrCoulomb,
     /// Mohr–Coulomb whose friction is updated per point each step from μ = μ_min + b·I
-    /// (chapter 4 §4.3, Da Cruz et al. 2005; figures.md D08, I6).
+    /// (chapter 4 §4.2.4, Da Cruz et al. 2005; docs/definitions.md D08, I6).
     MuILinear {
-        /// μ_min [-]. Default tan 22.2° = 0.408 (figures.md I6); the literal "0.22" of the
-        /// chapter is available by setting it.
+        /// μ_min [-]. Default tan 22.2° = 0.408 (docs/definitions.md I6); the literal
+        /// "0.22" of the chapter is available by setting it.
         mu_min: Real,
         /// b [-]. Chapter: 1.
         b: Real,
@@ -83,7 +83,7 @@ pub enum Model {
 }
 
 impl Model {
-    /// μ(I) with the chapter's values and μ_min = tan 22.2° (figures.md I6).
+    /// μ(I) with the chapter's values and μ_min = tan 22.2° (docs/definitions.md I6).
     pub fn mu_i_default() -> Self {
         Model::MuILinear {
             mu_min: (22.2 as Real).to_radians().tan(),
@@ -107,7 +107,8 @@ impl Model {
 pub struct Material {
     /// Constitutive model. Default Mohr–Coulomb.
     pub model: Model,
-    /// Young's modulus E [Pa]. Table 4.3: 1.98e6 (see figures.md I12 on whether it is M).
+    /// Young's modulus E [Pa]. Table 4.3: 1.98e6 (see docs/definitions.md I12 on whether it
+    /// is M).
     pub young_pa: Real,
     /// Poisson's ratio ν [-]. Table 4.3: 0.22 to 0.24; 0.22 used.
     pub poisson: Real,
@@ -124,8 +125,9 @@ pub struct Material {
     pub tension_cutoff_pa: Real,
     /// Mean grain diameter d̄ in I = γ̇ d̄/√(p/ρ_s) [m]. 1.15 mm (PSD-COL volume mean).
     pub grain_diameter: Real,
-    /// Grain (solid) density ρ_s in I [kg/m³]. UNSPEC; 2500 chosen (figures.md D08: the
-    /// chapter's ρ = 1925 = 2500 × 0.77 is a bulk density, Da Cruz et al. use the grain one).
+    /// Grain (solid) density ρ_s in I [kg/m³]. UNSPEC; 2500 chosen (docs/definitions.md
+    /// D08: the chapter's ρ = 1925 = 2500 × 0.77 is a bulk density, Da Cruz et al. use the
+    /// grain one).
     pub grain_density: Real,
     /// Cap on I [-] where p → 0 (free surface): μ(I) is evaluated at min(I, i_max). 1.0.
     pub i_max: Real,
@@ -158,11 +160,12 @@ impl Material {
     pub fn lame(&self) -> Real {
         self.young_pa * self.poisson / ((1.0 + self.poisson) * (1.0 - 2.0 * self.poisson))
     }
-    /// Plane-strain P-wave (constrained) modulus M = λ + 2G [Pa] (figures.md c.3: 2.2605e6).
+    /// Plane-strain P-wave (constrained) modulus M = λ + 2G [Pa] (docs/definitions.md c.3:
+    /// 2.2605e6).
     pub fn p_wave_modulus(&self) -> Real {
         self.lame() + 2.0 * self.shear_modulus()
     }
-    /// P-wave speed c_p = √(M/ρ) [m/s] (figures.md c.3: 34.27 m/s).
+    /// P-wave speed c_p = √(M/ρ) [m/s] (docs/definitions.md c.3: 34.27 m/s).
     pub fn p_wave_speed(&self) -> Real {
         (self.p_wave_modulus() / self.density).sqrt()
     }
@@ -315,14 +318,14 @@ impl MpmParams {
     pub fn spacing(&self) -> Real {
         self.cell_size / self.ppc_1d() as Real
     }
-    /// GIMP half-width l_p = h/(2√PPC) [m] (figures.md D01: 0.25 mm).
+    /// GIMP half-width l_p = h/(2√PPC) [m] (docs/definitions.md D01: 0.25 mm).
     pub fn half_width(&self) -> Real {
         0.5 * self.spacing()
     }
     /// Half-width of the shape functions' particle domain: l_p for GIMP, 0 for the linear
     /// hat (standard MPM). [`half_width`](Self::half_width) stays the point's half-size
-    /// h/(2√PPC), the body size the run-out and height measurements use (figures.md D01)
-    /// whatever the shape functions.
+    /// h/(2√PPC), the body size the run-out and height measurements use
+    /// (docs/definitions.md D01) whatever the shape functions.
     pub fn shape_half_width(&self) -> Real {
         match self.shape {
             Shape::Gimp => self.half_width(),

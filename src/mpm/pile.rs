@@ -1,9 +1,9 @@
-//! The MPM pile (figures.md SC-PILE, PILE-MPM, stages P8 and R10/R11): material points on
-//! a regular lattice (√PPC per cell and direction) filling the outline of the DEM deposit,
-//! loaded geostatically, then given the horizontal excitation and run until rest.
+//! The MPM pile (docs/definitions.md SC-PILE, PILE-MPM, stages P8 and R10/R11): material
+//! points on a regular lattice (√PPC per cell and direction) filling the outline of the DEM
+//! deposit, loaded geostatically, then given the horizontal excitation and run until rest.
 //!
-//! Geostatic stage (figures.md I7): a cohesionless Mohr–Coulomb slope steeper than φ is not
-//! statically admissible, so the pile is loaded with a higher friction angle
+//! Geostatic stage (docs/definitions.md I7): a cohesionless Mohr–Coulomb slope steeper than
+//! φ is not statically admissible, so the pile is loaded with a higher friction angle
 //! (`geostatic_friction_deg`) and the run's φ is restored at t = 0 (option ii of I7); the
 //! stress field is kept, velocities and plastic history reset.
 

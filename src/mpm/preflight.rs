@@ -1,4 +1,5 @@
-//! Stability pre-flight (figures.md §c.3): every time scale of an MPM run against the step.
+//! Stability pre-flight (docs/definitions.md c.3): every time scale of an MPM run against
+//! the step.
 //!
 //! - CFL: Δt ≤ h/(c_p + |v|_max) with c_p = √(M/ρ), M = E(1−ν)/((1+ν)(1−2ν)) the plane-strain
 //!   P-wave modulus (2.2605e6 Pa → 34.27 m/s for table 4.3). This is the hard limit (refused

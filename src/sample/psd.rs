@@ -5,7 +5,7 @@
 //! The grading curve h(d) = I_{d_r}(a, b) is the *volume* (2D: area) fraction finer than d,
 //! with the reduced diameter d_r = (d − d_min)/(d_max − d_min) and I the regularised
 //! incomplete beta function. β(1, 1) is the chapter's "uniform distribution of diameters
-//! by volume fractions" (figures.md I15); the thesis's generator used a = b = 4.
+//! by volume fractions" (docs/definitions.md I15); the thesis's generator used a = b = 4.
 //!
 //! Sampling: grains are drawn by *number*, whose density is n(d) ∝ h'(d)/d² for disks
 //! (area ∝ d²). The number CDF is tabulated on a fine grid from exact increments of h
@@ -266,7 +266,8 @@ mod tests {
 
     #[test]
     fn uniform_by_volume_matches_closed_form_number_density() {
-        // β(1,1): number CDF N(d) = (1/d_min − 1/d)/(1/d_min − 1/d_max) (figures.md SC-PSD).
+        // β(1,1): number CDF N(d) = (1/d_min − 1/d)/(1/d_min − 1/d_max)
+        // (docs/definitions.md SC-PSD).
         let g = BetaGrading {
             d_min: 0.92e-3,
             d_max: 1.38e-3,

@@ -8,7 +8,7 @@
 //! both, and hands μ_r and the rolling model to every DEM scene through the DAG.
 //!
 //! The run-out of a collapse is chaotic: grains displaced by 1e-9 m give ΔL ± 0.05 at
-//! a = 0.4 (LAMMPS and ours alike, `shared/bench/lammps/column-rolling`). A point is
+//! a = 0.4 (LAMMPS and ours alike, `bench/lammps/column-rolling/`). A point is
 //! therefore an ensemble: member k starts from the prepared column with every grain
 //! moved by a uniform random offset of at most `perturbation_m` (seeded), member 0
 //! unperturbed; we report the mean and the sample standard deviation.

@@ -302,7 +302,7 @@ fn snap_of(inp: &InputRef, k: Option<f64>) -> anyhow::Result<Snap> {
 }
 
 impl Snap {
-    /// Volume-mean diameter Σ d³ / Σ d² (figures.md d̄).
+    /// Volume-mean diameter Σ d³ / Σ d² (docs/definitions.md SC-PSD: d̄).
     fn d_mean(&self) -> f64 {
         let s3: f64 = self.half.iter().map(|h| (2.0 * h).powi(3)).sum();
         let s2: f64 = self.half.iter().map(|h| (2.0 * h).powi(2)).sum();
@@ -399,7 +399,7 @@ fn run_scheme(ctx: &StageCtx) -> anyhow::Result<Output> {
     let ep = series(inp, "table", "ep_j")?;
     let g = 9.81;
     let xt = 2.0 * l0 - lf;
-    // Geometry of eqs 4.8–4.9 (figures.md fig4-12).
+    // Geometry of eqs 4.8–4.9 (docs/definitions.md fig4-12).
     let initial = [(0.0, 0.0), (l0, 0.0), (l0, h0), (0.0, h0)];
     let deposit = [(0.0, 0.0), (lf, 0.0), (xt, h0), (0.0, h0)];
     let dest = [(xt, h0), (l0, h0), (l0, 0.5 * h0)];
@@ -468,7 +468,7 @@ fn run_scheme(ctx: &StageCtx) -> anyhow::Result<Output> {
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
     out.checks.push(Claim::at_most(
         "scheme-valid",
-        "the scheme needs x_t = 2L_0 − L_f ≥ 0, i.e. ΔL ≤ 1 (figures.md fig4-12)",
+        "the scheme needs x_t = 2L_0 − L_f ≥ 0, i.e. ΔL ≤ 1 (docs/definitions.md fig4-12)",
         1.0,
         dl / l0,
     ));
@@ -801,7 +801,7 @@ fn sample_phi(inp: &InputRef) -> anyhow::Result<f64> {
 }
 
 /// R² of linear and quadratic fits of the deposit surface h(x) beyond x = L_0 (the
-/// front, where the two deposits differ: figures.md fig4-20).
+/// front, where the two deposits differ: docs/definitions.md fig4-20).
 fn front_shape(inp: &InputRef, l0: f64, gap_d: f64, bin_d: f64) -> anyhow::Result<(f64, f64, usize)> {
     let snap = snap_of(inp, None)?;
     let d = snap.d_mean();
@@ -893,7 +893,7 @@ fn run_pair(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("compaction_loss_over_e0", ed_at[1] - ed_at[0])
         .scalar("compaction_loss_over_e0_at_tau_c", ed_tau[1] - ed_tau[0]);
     out.note(format!(
-        "D_r: e = (1 − φ)/φ with φ the packing fraction of each prepared sample in a window ≥ 2 d̄ from its walls and surface (the plain Voronoi cells are biased at r = 6); e_min = {e_min:.4} (φ = {phi_min_e:.4}, frictionless deposition) and e_max = {e_max:.4} (φ = {phi_max_e:.4}, high-friction deposition) from the P4a reference packings (figures.md P4a's proposal). Dense D_r = {:.0} %, loose {:.0} % (chapter 74 %, 22 %). Compaction loss (our metric for \"20 % lost in densification\"): (E_d/E_0)_loose − (E_d/E_0)_dense = {:.3} at {} τ_c ({:.3} at τ_c).",
+        "D_r: e = (1 − φ)/φ with φ the packing fraction of each prepared sample in a window ≥ 2 d̄ from its walls and surface (the plain Voronoi cells are biased at r = 6); e_min = {e_min:.4} (φ = {phi_min_e:.4}, frictionless deposition) and e_max = {e_max:.4} (φ = {phi_max_e:.4}, high-friction deposition) from the P4a reference packings (docs/definitions.md P4a). Dense D_r = {:.0} %, loose {:.0} % (chapter 74 %, 22 %). Compaction loss (our metric for \"20 % lost in densification\"): (E_d/E_0)_loose − (E_d/E_0)_dense = {:.3} at {} τ_c ({:.3} at τ_c).",
         100.0 * dr[0], 100.0 * dr[1], ed_at[1] - ed_at[0], p.t_compare, ed_tau[1] - ed_tau[0]
     ));
     Ok(out)

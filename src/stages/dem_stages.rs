@@ -91,7 +91,7 @@ pub struct PrepParams {
     pub packing: Packing,
     /// Ballistic deposition settings (width is set to L_0).
     pub deposition: DepositionParams,
-    /// Grain diameter of the hexagonal lattice [m] (figures.md HEX: 1.15 mm).
+    /// Grain diameter of the hexagonal lattice [m] (docs/definitions.md SC-PSD, HEX: 1.15 mm).
     pub hex_diameter_m: f64,
     /// The chapter's packing fraction for this sample, checked against the core packing
     /// (≥ 2 d̄ from walls and the surface; D09 leaves the region open). None: no claim.
@@ -357,7 +357,7 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("seed", p.deposition.seed as f64);
     out.checks.push(Claim::at_most(
         "at-rest",
-        "stable state before release: E_k/E_p < 1e-6 (figures.md fig4-02)",
+        "stable state before release: E_k/E_p < 1e-6 (docs/definitions.md fig4-02)",
         1e-6,
         col.settle.ke_over_ep,
     ));
@@ -623,7 +623,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     let e0 = s.first().map(|v| v.ep).unwrap_or(1.0);
     let last = s.last().copied();
     // D10: t_f = when the front settles to within 0.5 d̄ of its final position (d̄ the
-    // volume-mean diameter, as figures.md defines it).
+    // volume-mean diameter, as docs/definitions.md SC-PSD defines it).
     let d_mean = col.state.volume_mean_diameter();
     let t_f = crate::analysis::front::stop_time(
         &s.iter().map(|v| v.t).collect::<Vec<_>>(),
@@ -690,7 +690,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     }
     out.checks.push(Claim::at_most(
         "energy-balance",
-        "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (figures.md D07: within 1 %)",
+        "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (docs/definitions.md D07: within 1 %)",
         0.01,
         max_res / e0,
     ));
@@ -1088,7 +1088,7 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("height_m", r.height)
         .scalar("stiffness_factor", p.stiffness_factor);
     out.claims.push(Claim::rel("youngs-modulus", "E = 1.98e6 N/m², \"initial slope of the stress-strain plot of a uni-axial compression of a laterally confined granular column\" (I12: that slope is M; E = M(1+ν)(1−2ν)/(1−ν))", 1.98e6, r.young, 0.25));
-    out.note(format!("Constrained modulus M = {:.3e} Pa (slope over the first {:.2} % strain), E = {:.3e} Pa with ν = {}; K_0 = {:.3}. Contact stiffness factor {} (the affine estimate of figures.md I12 scales with k_n).", r.modulus, 100.0 * p.compression.fit_strain, r.young, p.compression.poisson, r.k0, p.stiffness_factor));
+    out.note(format!("Constrained modulus M = {:.3e} Pa (slope over the first {:.2} % strain), E = {:.3e} Pa with ν = {}; K_0 = {:.3}. Contact stiffness factor {} (the affine estimate of docs/definitions.md I12 scales with k_n).", r.modulus, 100.0 * p.compression.fit_strain, r.young, p.compression.poisson, r.k0, p.stiffness_factor));
     let chart = Chart {
         title: ctx
             .caption

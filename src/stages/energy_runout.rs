@@ -1,12 +1,13 @@
 //! Kind `energy-runout` (fig 4.45, chapter §4.4.6): the run-out of collapsing columns and of
 //! excited piles against the kinetic energy available for the flow, per grain in m g d.
 //!
-//! Columns (figures.md D22): "the peak energy at τ_c is used as the energy available for
-//! the flow" — x = max_t E_k / (M g d̄), d̄ = 1.15 mm, computed as (max E_k / E_p0)·H_0/(2 d̄)
-//! since E_p0 = M g H_0/2 for a column of uniform packing (D22's own identity). Piles: x =
-//! E_0 per grain (D21). y = ΔL = (L_f − L_0)/L_0 for both. Reads the column sweeps' members
-//! (roles `col_dem`, `col_mpm`: scalars `a`, `h0_m`, `runout_norm`, table columns `ek_j`,
-//! `ep_j`) and the pile runs (roles `pile_dem`, `pile_mpm`: `e0_mgd`, `dl`).
+//! Columns (docs/definitions.md D22): "the peak energy at τ_c is used as the energy
+//! available for the flow" — x = max_t E_k / (M g d̄), d̄ = 1.15 mm, computed as (max
+//! E_k / E_p0)·H_0/(2 d̄) since E_p0 = M g H_0/2 for a column of uniform packing (D22's own
+//! identity). Piles: x = E_0 per grain (D21). y = ΔL = (L_f − L_0)/L_0 for both. Reads the
+//! column sweeps' members (roles `col_dem`, `col_mpm`: scalars `a`, `h0_m`, `runout_norm`,
+//! table columns `ek_j`, `ep_j`) and the pile runs (roles `pile_dem`, `pile_mpm`: `e0_mgd`,
+//! `dl`).
 
 use polars::prelude::{Column, DataFrame};
 use serde::{Deserialize, Serialize};

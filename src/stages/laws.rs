@@ -140,7 +140,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("eq4_6_high_branch_at_2_7", hi)
         .scalar("eq4_6_jump_fraction", hi / lo - 1.0)
         .scalar("eq4_6_branches_cross_at_a", (2.7f64 / 1.67).powi(3));
-    out.note("figures.md I4: eq 4.6's branches jump by 16 % at a = 2.7 and cross at a = 4.23; each branch is fitted separately, continuity is not forced.");
+    out.note("docs/definitions.md I4: eq 4.6's branches jump by 16 % at a = 2.7 and cross at a = 4.23; each branch is fitted separately, continuity is not forced.");
     let chart = Chart::log_log(
         ctx.caption.clone().unwrap_or_else(|| "Stated scaling laws".into()),
         footer(&ctx.profile, "laws as stated, not simulations"),

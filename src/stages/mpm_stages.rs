@@ -31,9 +31,9 @@ fn calibrate(ctx: &StageCtx, p: &mut MpmParams, enabled: bool) -> anyhow::Result
     if let Some(s) = ctx.input_opt("shear") {
         p.material.friction_deg = s.scalar("friction_angle_deg")?;
         parts.push(format!("φ = {:.2}° from `{}`", p.material.friction_deg, s.id));
-        // μ(I)'s quasi-static friction is the same measured φ (figures.md I6: the chapter's
-        // μ_min is tan of its critical-state angle), so μ(I) and Mohr–Coulomb differ only
-        // by the rate term — the comparison of figs 4.14–4.15.
+        // μ(I)'s quasi-static friction is the same measured φ (docs/definitions.md I6: the
+        // chapter's μ_min is tan of its critical-state angle), so μ(I) and Mohr–Coulomb
+        // differ only by the rate term — the comparison of figs 4.14–4.15.
         let mu = p.material.friction_deg.to_radians().tan();
         match &mut p.material.model {
             Model::MuILinear { mu_min, .. } => {
@@ -61,7 +61,7 @@ fn calibrate(ctx: &StageCtx, p: &mut MpmParams, enabled: bool) -> anyhow::Result
 }
 
 /// Largest speed the validation-time pre-flight expects: √(2 g H_0) of the tallest
-/// column (a = 10, H_0 ≈ 0.197 m), figures.md c.3.
+/// column (a = 10, H_0 ≈ 0.197 m), docs/definitions.md c.3.
 const PREFLIGHT_V_MAX: f64 = 1.97;
 
 fn check_mpm(p: &MpmParams, c: &mut Checker) {
@@ -303,10 +303,10 @@ pub const GEOSTATIC_KIND: Kind = Kind {
 pub struct CollapseParams {
     /// Solver and material.
     pub mpm: MpmParams,
-    /// Aspect ratio a = H_0/L_0 (column area of the DEM columns, figures.md SC-COL).
+    /// Aspect ratio a = H_0/L_0 (column area of the DEM columns, docs/definitions.md SC-COL).
     pub a: f64,
     /// Column area L_0·H_0 [m²]: the DEM columns' (stages/col-dem-prep.yaml), so DEM and
-    /// MPM columns of one profile have the same L_0 and H_0 (figures.md I11).
+    /// MPM columns of one profile have the same L_0 and H_0 (docs/definitions.md I11).
     pub area_m2: f64,
     /// Run control (sampling, stop criterion, snapshots).
     pub run: CollapseOptions,

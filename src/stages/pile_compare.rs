@@ -530,7 +530,7 @@ fn run_front(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Res
     );
     out.claims.push(Claim::at_most(
         "mpm-dem-front",
-        &format!("\"the continuum behaviour is identical to that of grain-scale simulations\": largest |L_MPM − L_DEM|/L_DEM of the front at t ∈ {:?} √(d/g), E_0 = {} mgd (figures.md: within ~5 %)", p.times, p.e0_mgd),
+        &format!("\"the continuum behaviour is identical to that of grain-scale simulations\": largest |L_MPM − L_DEM|/L_DEM of the front at t ∈ {:?} √(d/g), E_0 = {} mgd (docs/definitions.md fig4-42: within ~5 %)", p.times, p.e0_mgd),
         p.front_tolerance,
         worst,
     ));

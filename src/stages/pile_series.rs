@@ -1,5 +1,6 @@
 //! Kind `pile-series`: method-agnostic analysis of the time series of pile runs (chapter 4
-//! §4.4.2, §4.4.4, §4.4.5; figures.md figs 4.26, 4.29, 4.30, 4.34, 4.35, 4.37–4.41, D12–D16).
+//! §4.4.2, §4.4.4, §4.4.5; figs 4.26, 4.29, 4.30, 4.34, 4.35, 4.37–4.41;
+//! docs/definitions.md D12–D16).
 //!
 //! Reads the `table` and `series` of one or more `pile-run` stages (role `runs`, a matrix
 //! fan-in allowed) and writes what the figures draw and the chapter's statements need:
@@ -53,7 +54,8 @@ pub struct SeriesParams {
     pub split_mgd: f64,
     /// End of the transient t_1 [√(d/g)] (D12: the chapter's fixed 7.5).
     pub t1: f64,
-    /// "Completely dissipated": E_k/E_0 below this (figures.md fig4-34: 1e-3, UNSPEC).
+    /// "Completely dissipated": E_k/E_0 below this (docs/definitions.md fig4-34: 1e-3,
+    /// UNSPEC).
     pub zero_ratio: f64,
     /// High-pass of E_ky/E_0: minus its centred moving average over this window [√(d/g)].
     pub highpass_window: f64,
@@ -742,7 +744,7 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
     out.scalar("ppc_conv_err", conv_err)
         .scalar("ppc_tf_err", tf_err)
         .scalar("ppc_ekx_diff_low", ekx_diff);
-    out.claims.push(Claim::at_most("ppc-converged", &format!("fig 4.26: \"the run-out distance converges when the number of PPC is more than 25\": largest |ΔL(PPC) − ΔL(ref)|/ΔL(ref) over PPC ≥ {} ({span}; bound 2 %, figures.md)", p.converged_ppc), 0.02, if conv_err > 0.0 || ppcs.iter().filter(|&&q| q >= conv).count() >= 2 { conv_err } else { f64::NAN }));
+    out.claims.push(Claim::at_most("ppc-converged", &format!("fig 4.26: \"the run-out distance converges when the number of PPC is more than 25\": largest |ΔL(PPC) − ΔL(ref)|/ΔL(ref) over PPC ≥ {} ({span}; bound 2 %, docs/definitions.md fig4-26)", p.converged_ppc), 0.02, if conv_err > 0.0 || ppcs.iter().filter(|&&q| q >= conv).count() >= 2 { conv_err } else { f64::NAN }));
     out.claims.push(Claim::at_least("ppc-low-longer", &format!("fig 4.26: \"At a low input energy of 50 J, 4 and 16 material points per cell result in a longer run-out distance\": smallest ΔL(PPC)/ΔL(ref) over PPC < {} at {e_lo} mgd ({span})", p.converged_ppc), 1.0, low_longer));
     out.claims.push(Claim::at_least("ppc-high-longer", &format!("fig 4.26: \"at a high input energy of 500 J … the run-out is higher than the run-out predicted with more than 25 material points per cell\": smallest ΔL(PPC)/ΔL(ref) over PPC < {} at {e_hi} mgd ({span})", p.converged_ppc), 1.0, high_longer));
     out.claims.push(Claim::at_most("ppc-tf-unaffected", &format!("fig 4.30: \"The final run-out duration is almost unaffected by the increase in the number of material points per cell\": largest |t_f(PPC) − t_f(ref)|/t_f(ref) ({span}; bound 10 %, UNSPEC)"), 0.1, tf_err));

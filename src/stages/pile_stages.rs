@@ -1,4 +1,5 @@
-//! Stage kinds of the pile study (chapter 4 §4.4, figures.md SC-PILE, figs 4.23–4.45):
+//! Stage kinds of the pile study (chapter 4 §4.4, figs 4.23–4.45; docs/definitions.md
+//! SC-PILE):
 //!
 //! - `dem-pile-prep` (fig4-23): pour, shift the wall, relax to rest; slope, packing, height.
 //! - `pile-run`: one method (DEM, CD or MPM), one excitation profile, a list of input
@@ -704,8 +705,9 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 // Not exact: the frictional wall and base carry part of the weight (column
                 // fig4-04: 2.5 % at the base) and the seeding surface is the grains' rough top.
                 out.checks.push(Claim::at_most("sigma-yy-lithostatic", "fig4-24b: σ_yy after the geostatic stage ≈ −ρg(h_surface(x) − y) (relative L2 misfit over the points > 2 spacings deep; bound 0.2)", 0.2, err));
-                // figures.md fig4-24: "Expected max v_x = kH ≈ 1.1 m/s at the base next to the
-                // wall (triangle estimate)": E_0/(M g d) = (kH)²/(4 g d) for a right triangle.
+                // docs/definitions.md fig4-24: "Expected max v_x = kH ≈ 1.1 m/s at the base
+                // next to the wall (triangle estimate)": E_0/(M g d) = (kH)²/(4 g d) for a
+                // right triangle.
                 if p.profile == Profile::Gradient {
                     let e_mgd = runs
                         .iter()
@@ -724,7 +726,7 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 .scalar("mpm_points", loaded.state.points.len() as f64)
                 .scalar("mpm_geostatic_time_s", loaded.geostatic_time);
             out.note(format!(
-                "MPM: Mohr–Coulomb φ = {:.2}° and base/wall friction {mu:.3} from {source}; ρ = {:.0} kg/m³ (grain density × the DEM pile's φ); {} points, cell {} m, PPC {}; geostatic stage at φ = {}° (figures.md I7 option ii).",
+                "MPM: Mohr–Coulomb φ = {:.2}° and base/wall friction {mu:.3} from {source}; ρ = {:.0} kg/m³ (grain density × the DEM pile's φ); {} points, cell {} m, PPC {}; geostatic stage at φ = {}° (docs/definitions.md I7 option ii).",
                 mu.atan().to_degrees(), mp.material.density, loaded.state.points.len(), mp.cell_size, mp.ppc, p.mpm_pile.geostatic_friction_deg
             ));
         }

@@ -119,7 +119,7 @@ pub struct PsdFigureParams {
     pub curve_points: usize,
     /// Mean diameter the chapter states [mm] (claim).
     pub paper_mean_mm: f64,
-    /// Largest Kolmogorov distance accepted (claim; figures.md fig4-01: < 0.05).
+    /// Largest Kolmogorov distance accepted (claim; docs/definitions.md fig4-01: < 0.05).
     pub ks_max: f64,
 }
 
@@ -211,7 +211,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
     ));
     out.checks.push(Claim::at_most(
         "ks-distance",
-        "sampled grains follow the target distribution (Kolmogorov distance < 0.05, figures.md fig4-01)",
+        "sampled grains follow the target distribution (Kolmogorov distance < 0.05, docs/definitions.md fig4-01)",
         p.ks_max,
         ks,
     ));

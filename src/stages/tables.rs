@@ -1,7 +1,7 @@
 //! Kind `material-table`: tables 4.1–4.3 rendered from the parameter files the scenes
-//! actually use (`stages/*-material.yaml`), with the derived checks figures.md §4 asks
-//! for printed beside them. Nothing is copied text: change a material file and the table
-//! (and every scene reading that file) changes with it.
+//! actually use (`stages/*-material.yaml`), with the derived checks docs/definitions.md
+//! tab4-01 … tab4-03 ask for printed beside them. Nothing is copied text: change a material
+//! file and the table (and every scene reading that file) changes with it.
 
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -288,9 +288,9 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
                 "Time step (not in the chapter)",
                 g(m.dt),
                 "s",
-                "granrepro choice (figures.md c.1: t_c/48)",
+                "granrepro choice (docs/definitions.md c.1: t_c/48)",
             );
-            // Derived checks (figures.md tab4-02).
+            // Derived checks (docs/definitions.md tab4-02).
             let r_mean = psd
                 .as_ref()
                 .map(|p| 0.25 * (p.d_min_mm + p.d_max_mm) * 1e-3)
@@ -332,7 +332,7 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
             ));
             out.checks.push(Claim::rel(
                 "damping-ratio",
-                "γ = −ln ε/√(π²+ln²ε) = 0.09119 for ε = 0.75 (figures.md tab4-02)",
+                "γ = −ln ε/√(π²+ln²ε) = 0.09119 for ε = 0.75 (docs/definitions.md tab4-02)",
                 0.09119,
                 gamma,
                 0.001,
