@@ -75,7 +75,7 @@ pub enum BenchEngine {
     /// machine (thread team forced on) for the settled column cut to 250 … 5848 grains.
     DemCrossover,
     /// Per-stage table of the optional terms and outputs each scene enables, and the step
-    /// cost of its configuration against everything on (issue 12; README "Stability and cost").
+    /// cost of its configuration against everything on (issue 12; docs/stability.md).
     LeaveOut,
 }
 

@@ -35,7 +35,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering::*};
 
 /// Below this many grains a world steps on its calling thread even in a multi-thread
 /// pool (and leaves the other threads to other scenes). Measured crossover on the project's
-/// 2-core machine, `bench dem-crossover` (README "DEM speed, session 5").
+/// 2-core machine, `bench dem-crossover` (docs/performance.md, "Session 5: DEM").
 pub const TEAM_MIN_GRAINS: usize = 1000;
 
 const BITS: u32 = 20;
