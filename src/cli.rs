@@ -588,8 +588,8 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
-        Cmd::Simulate { scene, out, quiet } if crate::stages::cd_stages::is_cd_scene(&scene) => {
-            crate::stages::cd_stages::simulate_cd(&scene, &out, quiet)
+        Cmd::Simulate { scene, out, quiet } if crate::scene_cd::is_cd_scene(&scene) => {
+            crate::scene_cd::simulate_cd(&scene, &out, quiet)
         }
         Cmd::Simulate { scene, out, quiet } if crate::scene_mpm::is_mpm_scene(&scene) => {
             crate::scene_mpm::simulate_mpm(&scene, &out, quiet)

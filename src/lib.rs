@@ -20,6 +20,7 @@ pub mod pipeline;
 pub mod report;
 pub mod sample;
 pub mod scene;
+pub mod scene_cd;
 pub mod scene_mpm;
 pub mod stages;
 pub mod validate;

@@ -383,6 +383,27 @@ pub fn grain_sample(t: f64, st: &crate::dem::state::State, link: crate::analysis
     }
 }
 
+/// A finished pile run (any method).
+#[derive(Debug, Clone)]
+pub struct PileRun {
+    /// Time series.
+    pub samples: Vec<Sample>,
+    /// L_0 of the run's own measure [m].
+    pub l0: f64,
+    /// Input energy [J/m].
+    pub e0: f64,
+    /// Σ ½ m v_x² at t = 0 / E_0.
+    pub e0_check: f64,
+    /// Whether the stopping rule ended the run.
+    pub stopped: bool,
+    /// Steps taken.
+    pub steps: u64,
+    /// Final body positions and half-sizes (x, y, half) for snapshots.
+    pub final_bodies: (Vec<f64>, Vec<f64>, Vec<f64>),
+    /// Frames at the requested instants (empty unless asked for).
+    pub frames: Vec<Frame>,
+}
+
 // ---------------------------------------------------------------------------------------
 // Snapshots of a pile run (figs 4.24, 4.31, 4.32, 4.42, 4.43): taken only when a stage asks.
 

@@ -7,10 +7,10 @@
 use crate::cd::error::CdError;
 use crate::cd::params::CdParams;
 use crate::cd::world::{Stats, Timers, World};
-use crate::dem::prep::SplitMix64;
 use crate::dem::state::State;
 use crate::dem::walls::Wall;
 use crate::math::{PI, Real};
+use crate::sample::rng::SplitMix64;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -240,7 +240,7 @@ pub fn run_excited_pile(
     profile: crate::analysis::pile::Profile,
     e0: Real,
     stop: &crate::analysis::pile::StopRule,
-) -> Result<crate::dem::pile::PileRun, CdError> {
+) -> Result<crate::analysis::pile::PileRun, CdError> {
     run_excited_pile_frames(pile, params, profile, e0, stop, &Default::default())
 }
 
@@ -253,7 +253,7 @@ pub fn run_excited_pile_frames(
     e0: Real,
     stop: &crate::analysis::pile::StopRule,
     frames: &crate::analysis::pile::FrameTimes,
-) -> Result<crate::dem::pile::PileRun, CdError> {
+) -> Result<crate::analysis::pile::PileRun, CdError> {
     use crate::analysis::front::Link;
     use crate::analysis::pile::{excitation, grain_sample, kinetic, sample_run};
     use crate::dem::pile::grain_frame;
@@ -297,7 +297,7 @@ pub fn run_excited_pile_frames(
         stopped,
     } = run;
     let st = &w.state;
-    Ok(crate::dem::pile::PileRun {
+    Ok(crate::analysis::pile::PileRun {
         samples,
         l0,
         e0,

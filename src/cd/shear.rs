@@ -18,9 +18,9 @@
 use crate::cd::error::CdError;
 use crate::cd::params::CdParams;
 use crate::cd::world::World;
-use crate::dem::prep::SplitMix64;
 use crate::dem::state::State;
 use crate::math::Real;
+use crate::sample::rng::SplitMix64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

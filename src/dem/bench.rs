@@ -13,10 +13,11 @@
 
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
-use crate::dem::prep::{SplitMix64, box_walls, lattice_column, quench, settle};
+use crate::dem::prep::{box_walls, lattice_column, quench, settle};
 use crate::dem::timers::PhaseTimers;
 use crate::dem::world::World;
 use crate::math::Real;
+use crate::sample::rng::SplitMix64;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 

@@ -502,7 +502,7 @@ mod tests {
     fn batch_matches_scalar_with<const R: bool, const I: bool, const L: bool>(cap_dashpot: bool, eval: EvalPairs) {
         let mut c = coeffs();
         c.cap_dashpot = cap_dashpot;
-        let mut rng = crate::dem::prep::SplitMix64(7);
+        let mut rng = crate::sample::rng::SplitMix64(7);
         let mut u = |a: Real, b: Real| a + (b - a) * rng.next_f64();
         let mut b = PairBatch::default();
         let mut o = PairBatchOut::default();

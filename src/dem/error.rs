@@ -1,6 +1,6 @@
 //! Errors of the DEM library; each carries the numbers needed to act on it.
 
-use crate::dem::preflight::TimeScale;
+use crate::dem::time_scale::TimeScale;
 use crate::math::Real;
 
 /// DEM failure.

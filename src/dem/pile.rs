@@ -7,7 +7,7 @@
 
 use crate::analysis::front::{Body, Link, front};
 use crate::analysis::pile::{
-    Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, grain_sample, kinetic, sample_run,
+    Frame, FrameTimes, PileRun, Profile, Sampled, StopRule, excitation, grain_sample, kinetic, sample_run,
 };
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
@@ -116,27 +116,6 @@ pub fn prepare_pile(radii: &[Real], params: &DemParams, pp: &PileParams) -> Resu
         v_max: vm,
         state: s,
     })
-}
-
-/// A finished pile run (any method).
-#[derive(Debug, Clone)]
-pub struct PileRun {
-    /// Time series.
-    pub samples: Vec<Sample>,
-    /// L_0 of the run's own measure [m].
-    pub l0: Real,
-    /// Input energy [J/m].
-    pub e0: Real,
-    /// Σ ½ m v_x² at t = 0 / E_0.
-    pub e0_check: Real,
-    /// Whether the stopping rule ended the run.
-    pub stopped: bool,
-    /// Steps taken.
-    pub steps: u64,
-    /// Final body positions and half-sizes (x, y, half) for snapshots.
-    pub final_bodies: (Vec<Real>, Vec<Real>, Vec<Real>),
-    /// Frames at the requested instants (empty unless asked for).
-    pub frames: Vec<Frame>,
 }
 
 /// A frame of grains (DEM or CD: both on `dem::State`).

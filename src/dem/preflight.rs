@@ -14,30 +14,13 @@ use crate::math::{PI, Real};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
+pub use crate::dem::time_scale::TimeScale;
+
 /// Contacts per grain assumed by the multi-contact estimates (dense random disks).
 pub const Z_MULTI: Real = 4.0;
 /// Fewer steps than this per collision time gets a warning (ε accuracy; docs/definitions.md
 /// c.1).
 pub const MIN_STEPS_PER_COLLISION: Real = 20.0;
-
-/// One time scale of the scene.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TimeScale {
-    /// What it is, e.g. "collision grain–grain (d_min pair)".
-    pub name: String,
-    /// Its physical period or relaxation time [s].
-    pub value: Real,
-    /// Largest stable step for it [s] (∞ when unconditionally stable).
-    pub limit: Real,
-    /// Δt / limit (≥ 1 ⇒ unstable).
-    pub ratio: Real,
-    /// value / Δt (steps per period).
-    pub steps: Real,
-    /// How to fix a violation.
-    pub fix: String,
-    /// Remark (e.g. under-resolution warning).
-    pub note: String,
-}
 
 /// Sizes the audit needs.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -12,10 +12,10 @@
 
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
-use crate::dem::prep::SplitMix64;
 use crate::dem::state::{Motion, State};
 use crate::dem::world::World;
 use crate::math::Real;
+use crate::sample::rng::SplitMix64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

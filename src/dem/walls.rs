@@ -147,7 +147,7 @@ impl NearWalls {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dem::prep::SplitMix64;
+    use crate::sample::rng::SplitMix64;
 
     /// Grains moved by at most skin/2 and walls by at most skin/2 along their normal
     /// (what `NearWalls::hold` allows): every grain that touches a wall is listed for it.

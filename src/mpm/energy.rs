@@ -3,7 +3,7 @@
 
 use super::material::Elastic;
 use super::particles::Point;
-use super::solver::State;
+use super::state::State;
 use crate::math::Real;
 use rayon::prelude::*;
 

@@ -16,7 +16,8 @@
 use super::energy::{energies, total_mass};
 use super::error::MpmError;
 use super::particles::{Point, Stress};
-use super::solver::{Ledger, Solver, State};
+use super::solver::Solver;
+use super::state::{Ledger, State};
 use crate::math::{Real, Vec2};
 
 /// Outcome of the geostatic stage.

@@ -8,10 +8,10 @@
 //! stress field is kept, velocities and plastic history reset.
 
 use crate::analysis::front::{Body, Link, front};
+use crate::analysis::pile::PileRun;
 use crate::analysis::pile::{
     Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, kinetic, sample_run, surface_at,
 };
-use crate::dem::pile::PileRun;
 use crate::math::{Real, Vec2};
 use crate::mpm::boundary::column_walls;
 use crate::mpm::energy::energies;
@@ -19,7 +19,8 @@ use crate::mpm::error::MpmError;
 use crate::mpm::grid::Grid;
 use crate::mpm::params::MpmParams;
 use crate::mpm::particles::Point;
-use crate::mpm::solver::{Solver, State};
+use crate::mpm::solver::Solver;
+use crate::mpm::state::State;
 
 /// Points of spacing s = h/√PPC on the lattice under the surface `profile` (bin centre,
 /// top) for x ∈ [0, `l0`]: a point is kept when its centre lies below the surface.

@@ -153,7 +153,7 @@ impl fmt::Display for Report {
 /// ΔE_p ≤ M g H_0/2, so the centre travels at most H_0/(2μ_w); a front beyond x₁ is
 /// then impossible only if L_0 + H_0/(2μ_w) ≤ x₁ is not violated by the spreading itself —
 /// we refuse when even the centre's bound leaves the grid (μ_w = 0: no bound at all).
-pub fn containment(params: &MpmParams, spec: crate::mpm::column::ColumnSpec) -> Result<(), String> {
+pub fn containment(params: &MpmParams, spec: crate::mpm::column_spec::ColumnSpec) -> Result<(), String> {
     let h = params.cell_size;
     let x1 = spec.l0 * (1.0 + 3.0 * spec.runout_estimate()) + 8.0 * h;
     let mu = params.wall_friction;

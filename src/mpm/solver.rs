@@ -48,6 +48,7 @@ use super::material::{self, Elastic, McSurface};
 use super::params::{MpmParams, Scheme, StepRule, Wall};
 use super::particles::Point;
 use super::shape::first_node;
+use super::state::{Ledger, State};
 use super::stress_block;
 use super::transfer::{Geom, simd_available};
 use crate::math::{Mat2, Real, Vec2};
@@ -57,45 +58,6 @@ use std::time::{Duration, Instant};
 
 /// Node columns per band of the parallel scatter.
 const BAND: usize = 2;
-
-/// Cumulative dissipated/removed energies [J/m].
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Ledger {
-    /// Coulomb friction work at the walls.
-    pub wall_friction: Real,
-    /// Normal (impact/support) work at the walls.
-    pub wall_normal: Real,
-    /// Work removed by geostatic damping.
-    pub damping: Real,
-}
-
-/// The solver's evolving state.
-#[derive(Debug, Clone)]
-pub struct State {
-    /// Material points.
-    pub points: Vec<Point>,
-    /// Time [s].
-    pub t: Real,
-    /// Steps taken.
-    pub step: u64,
-    /// Boundary and damping work.
-    pub ledger: Ledger,
-    /// Size of the last step [s] (0 before the first).
-    pub last_dt: Real,
-}
-
-impl State {
-    /// A state at t = 0.
-    pub fn new(points: Vec<Point>) -> Self {
-        Self {
-            points,
-            t: 0.0,
-            step: 0,
-            ledger: Ledger::default(),
-            last_dt: 0.0,
-        }
-    }
-}
 
 /// Accumulated wall-clock time of each phase.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

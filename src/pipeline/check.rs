@@ -93,16 +93,7 @@ fn walk(v: &Yaml, key: String, out: &mut Vec<BadNumber>) {
     }
 }
 
-/// How many stages a role takes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Arity {
-    /// Exactly one stage, always.
-    One,
-    /// Exactly one stage, when given.
-    OptionalOne,
-    /// One or more stages (fan-in).
-    Many,
-}
+pub use super::context::Arity;
 
 /// The input roles a kind reads, with their arity. Kept here, beside validation, so a
 /// missing or misnamed input is an error before anything runs; a kind's run function

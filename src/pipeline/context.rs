@@ -10,6 +10,17 @@ use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+/// How many stages a role takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Arity {
+    /// Exactly one stage, always.
+    One,
+    /// Exactly one stage, when given.
+    OptionalOne,
+    /// One or more stages (fan-in).
+    Many,
+}
+
 /// One of the chapter's quantitative claims against our number — or, in
 /// [`Output::checks`], a consistency check (an input, an identity, a numerical condition)
 /// that uses the same shape but is never counted as a reproduced claim.

@@ -1,2 +1,3 @@
-//! Sample generation: particle size distributions.
+//! Sample generation: particle size distributions, and the one random generator.
 pub mod psd;
+pub mod rng;

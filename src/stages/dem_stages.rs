@@ -9,60 +9,19 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::dem_common::{check_dem, column_from, explain_dem, grains_table, histories_table};
 use super::wp_summary::ensemble_error;
 use super::{Kind, Validate, decode, typed};
 use crate::dem::column::{CollapseParams, CollapseResult, Variant, collapse, work_precision};
 use crate::dem::compress::{CompressionParams, compression_test};
-use crate::dem::prep::{Column, DepositionParams, SettleReport, deposited_column, hex_column};
+use crate::dem::prep::{Column, DepositionParams, deposited_column, hex_column};
 use crate::dem::shear::{ShearParams, shear_test};
-use crate::dem::{ContactState, DemParams, SavedHistories, State};
+use crate::dem::{DemParams, State};
 use crate::math::{G, PI};
-use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64, frame};
+use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
 use crate::report::snapshot::{Field, Segment, Shape, Snapshot};
 use crate::validate::{Checker, Issue};
-
-/// Size classes the validation-time pre-flight assumes: PSD-COL (0.92–1.38 mm). The
-/// smallest grains bind, so larger PSDs are covered; each run repeats the audit with its
-/// actual grains.
-pub const PREFLIGHT_SIZES: crate::dem::SizeClasses = crate::dem::SizeClasses {
-    r_min: 0.46e-3,
-    r_mean: 0.575e-3,
-    r_max: 0.69e-3,
-};
-
-pub(crate) fn check_dem(p: &DemParams, factor: f64, c: &mut Checker) {
-    for i in p.validate() {
-        c.fail(&format!("dem.{}", i.key), i.value, &i.allowed);
-    }
-    c.in_open_closed("stiffness_factor", factor, 0.0, 1.0);
-    if !c.issues.is_empty() {
-        return;
-    }
-    // Pre-flight before anything runs: an unstable step is bad input (exit 2).
-    let run = p.softened(factor);
-    if let Err(e) = crate::dem::preflight(&run, PREFLIGHT_SIZES, true, run.dt) {
-        c.fail(
-            "dem.dt",
-            format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
-            &format!("a stable step — {e}. `granrepro run --explain` prints every time scale"),
-        );
-    }
-}
-
-/// `--explain`: the pre-flight table of a DEM stage's parameters.
-fn explain_dem(v: &serde_json::Value) -> String {
-    let dem: DemParams = v
-        .get("dem")
-        .cloned()
-        .and_then(|d| serde_json::from_value(d).ok())
-        .unwrap_or_default();
-    let f = v.get("stiffness_factor").and_then(|x| x.as_f64()).unwrap_or(1.0);
-    let run = dem.softened(f);
-    let rows = crate::dem::time_scales(&run, PREFLIGHT_SIZES, true, run.dt);
-    let pf = crate::dem::Preflight { dt: run.dt, rows };
-    format!("{pf}")
-}
 
 /// How a column is packed.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Default)]
@@ -125,87 +84,6 @@ impl Validate for PrepParams {
         c.positive("deposition.max_settle_time", self.deposition.max_settle_time);
         c.issues
     }
-}
-
-/// Grains table of a state.
-fn grains_table(s: &State) -> anyhow::Result<polars::prelude::DataFrame> {
-    frame(vec![("x_m", s.x.clone()), ("y_m", s.y.clone()), ("r_m", s.r.clone())])
-}
-
-/// Contact-history table of a settled sample: `wall` = −1 for a grain pair (a, b),
-/// else the wall index with grain a.
-fn histories_table(h: &SavedHistories) -> anyhow::Result<polars::prelude::DataFrame> {
-    let rows: Vec<(f64, u32, u32, ContactState)> = h
-        .pairs
-        .iter()
-        .map(|&(a, b, c)| (-1.0, a, b, c))
-        .chain(h.walls.iter().map(|&(w, a, c)| (w as f64, a, 0, c)))
-        .collect();
-    frame(vec![
-        ("wall", rows.iter().map(|r| r.0).collect()),
-        ("a", rows.iter().map(|r| r.1 as f64).collect()),
-        ("b", rows.iter().map(|r| r.2 as f64).collect()),
-        ("tangential_m", rows.iter().map(|r| r.3.tangential).collect()),
-        ("rolling_rad", rows.iter().map(|r| r.3.rolling).collect()),
-        ("ft_n", rows.iter().map(|r| r.3.ft).collect()),
-        ("mr_nm", rows.iter().map(|r| r.3.mr).collect()),
-    ])
-}
-
-/// The histories written by [`histories_table`].
-fn histories_from(input: &InputRef) -> anyhow::Result<SavedHistories> {
-    let df = input.table("contacts")?;
-    let (w, a, b) = (col_f64(&df, "wall")?, col_f64(&df, "a")?, col_f64(&df, "b")?);
-    let (t, r, ft, mr) = (
-        col_f64(&df, "tangential_m")?,
-        col_f64(&df, "rolling_rad")?,
-        col_f64(&df, "ft_n")?,
-        col_f64(&df, "mr_nm")?,
-    );
-    let mut h = SavedHistories::default();
-    for k in 0..w.len() {
-        let c = ContactState {
-            tangential: t[k],
-            rolling: r[k],
-            ft: ft[k],
-            mr: mr[k],
-        };
-        if w[k] < 0.0 {
-            h.pairs.push((a[k] as u32, b[k] as u32, c));
-        } else {
-            h.walls.push((w[k] as u32, a[k] as u32, c));
-        }
-    }
-    Ok(h)
-}
-
-/// Rebuild a prepared column from a prep stage's artifacts.
-pub(crate) fn column_from(input: &InputRef, density: f64) -> anyhow::Result<Column> {
-    let df = input.table("table")?;
-    let (x, y, r) = (col_f64(&df, "x_m")?, col_f64(&df, "y_m")?, col_f64(&df, "r_m")?);
-    let mut s = State::new();
-    for i in 0..x.len() {
-        s.insert(x[i], y[i], r[i], density);
-    }
-    let sc = input.scalars()?;
-    let get = |k: &str| {
-        sc.get(k)
-            .copied()
-            .ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", input.id))
-    };
-    Ok(Column {
-        state: s,
-        l0: get("l0_m")?,
-        h0: get("h0_m")?,
-        packing_fraction: get("packing_fraction")?,
-        packing_fraction_core: sc.get("packing_fraction_core").copied().unwrap_or(f64::NAN),
-        settle: SettleReport {
-            time: get("settle_time_s")?,
-            ke_over_ep: get("settle_ke_over_ep")?,
-            converged: true,
-        },
-        histories: histories_from(input)?,
-    })
 }
 
 /// Grain–grain contacts of a packing at rest: (i, j, overlap δ). With the linear contact

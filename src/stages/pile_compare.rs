@@ -139,8 +139,8 @@ impl Validate for CompareParams {
 }
 
 /// Input roles by comparison (for `pipeline::check::roles`).
-pub fn roles(params: &serde_json::Value) -> Vec<(&'static str, crate::pipeline::check::Arity)> {
-    use crate::pipeline::check::Arity::*;
+pub fn roles(params: &serde_json::Value) -> Vec<(&'static str, crate::pipeline::context::Arity)> {
+    use crate::pipeline::context::Arity::*;
     match params.get("what").and_then(|w| w.as_str()).unwrap_or("profiles") {
         "restitution" => vec![("runs", Many)],
         "front" => vec![("mpm", One), ("dem", One)],

@@ -12,12 +12,13 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Kind, Validate, decode, typed};
+use crate::analysis::pile::PileRun;
 use crate::analysis::pile::{
     D_NORM, Frame, FrameTimes, M_NORM, Profile, StopRule, Summary, cavity_area, envelope_packing, slope_deg, summarise,
     surface_at, surface_profile, wall_gap,
 };
 use crate::cd::CdParams;
-use crate::dem::pile::{PileParams, PileRun, prepare_pile};
+use crate::dem::pile::{PileParams, prepare_pile};
 use crate::dem::{DemParams, SizeClasses, State};
 use crate::fit::{PowerFit, two_regimes};
 use crate::mpm::params::MpmParams;
