@@ -20,8 +20,6 @@ use std::path::{Path, PathBuf};
 const KNOWN_CIRCLES: &[&str] = &[
     // the step's phases and the world share chunk types both ways
     "src/dem/integrate.rs src/dem/passes.rs src/dem/world.rs",
-    // validation orders the stages; the order needs the stage type
-    "src/pipeline/dag.rs src/pipeline/spec.rs",
 ];
 
 /// Largest source file allowed, in lines (issue 23: "no file over ~800 lines").
@@ -32,7 +30,7 @@ const KNOWN_LONG: &[(&str, usize)] = &[
     ("src/cli.rs", 1322),
     ("src/dem/passes.rs", 816),
     ("src/dem/world.rs", 1148),
-    ("src/pipeline/spec.rs", 1117),
+    ("src/pipeline/spec.rs", 1127),
     ("src/stages/column_analysis.rs", 918),
     ("src/stages/dem_stages.rs", 1322),
     ("src/stages/mpm_stages.rs", 1237),

@@ -1,61 +1,9 @@
-//! The stage graph: topological order (with the cycle named when there is one), the
-//! closure of stages a target needs, and DOT / Mermaid renderings.
+//! The stage graph: the closure of stages a target needs, and DOT / Mermaid renderings
+//! (the topological order itself is [`super::order`]).
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::BTreeSet;
 
-use super::spec::{Pipeline, Stage};
-
-/// Topological order of `stages` (indices), inputs first, ties broken by file order.
-/// On a cycle, returns the ids along it (first id repeated at the end).
-pub fn topo_order(stages: &[Stage]) -> Result<Vec<usize>, Vec<String>> {
-    let idx: HashMap<&str, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.as_str(), i)).collect();
-    let deps: Vec<Vec<usize>> = stages
-        .iter()
-        .map(|s| {
-            s.inputs
-                .iter()
-                .flat_map(|(_, ids)| ids.iter())
-                .filter_map(|d| idx.get(d.as_str()).copied())
-                .collect()
-        })
-        .collect();
-    // 0 = unvisited, 1 = on stack, 2 = done. Iterative DFS keeps file order stable.
-    let mut state = vec![0u8; stages.len()];
-    let mut order = Vec::with_capacity(stages.len());
-    for root in 0..stages.len() {
-        if state[root] != 0 {
-            continue;
-        }
-        let mut stack: Vec<(usize, usize)> = vec![(root, 0)];
-        state[root] = 1;
-        while let Some(&mut (node, ref mut next)) = stack.last_mut() {
-            if *next < deps[node].len() {
-                let d = deps[node][*next];
-                *next += 1;
-                match state[d] {
-                    0 => {
-                        state[d] = 1;
-                        stack.push((d, 0));
-                    }
-                    1 => {
-                        let pos = stack.iter().position(|&(n, _)| n == d).unwrap();
-                        let mut cycle: Vec<String> = stack[pos..].iter().map(|&(n, _)| stages[n].id.clone()).collect();
-                        // The stack runs consumer → input; print it in data-flow order.
-                        cycle.reverse();
-                        cycle.push(cycle[0].clone());
-                        return Err(cycle);
-                    }
-                    _ => {}
-                }
-            } else {
-                state[node] = 2;
-                order.push(node);
-                stack.pop();
-            }
-        }
-    }
-    Ok(order)
-}
+use super::spec::Pipeline;
 
 /// Ids (in topological order) of `targets` and everything they need. Empty targets =
 /// the whole pipeline. Unknown targets are returned as the error.

@@ -8,6 +8,7 @@ pub mod diag;
 pub mod estimate;
 pub mod export;
 pub mod fsio;
+pub mod order;
 pub mod plan;
 pub mod publish;
 pub mod run;

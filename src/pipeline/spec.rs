@@ -1058,7 +1058,17 @@ fn load_profile(
         return Err(diags);
     }
     // Topological order; report a cycle by name.
-    match super::dag::topo_order(&stages) {
+    let ids: Vec<&str> = stages.iter().map(|s| s.id.as_str()).collect();
+    let inputs: Vec<Vec<&str>> = stages
+        .iter()
+        .map(|s| {
+            s.inputs
+                .iter()
+                .flat_map(|(_, ids)| ids.iter().map(String::as_str))
+                .collect()
+        })
+        .collect();
+    match super::order::topo_order(&ids, &inputs) {
         Ok(order) => {
             let mut stages: Vec<Stage> = order.into_iter().map(|i| stages[i].clone()).collect();
             let index: HashMap<String, usize> = stages.iter().enumerate().map(|(i, s)| (s.id.clone(), i)).collect();
