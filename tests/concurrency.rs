@@ -4,6 +4,12 @@
 //! Root cause of the failure this guards against: `Cache::store` removed a finished entry
 //! and renamed a new one over it while another process was reading it ("cannot write the
 //! cache entry: Directory not empty", "input `psd-col` has no table").
+//!
+//! `clean` is one of those processes (issue 29, finding 4): a `clean` during a run keeps
+//! the entries the run uses (and says so), and the run succeeds and publishes. Root cause
+//! of that failure: `clean` removed every entry, temp directory and the `.locks`
+//! directory without taking any lock, so the run's input vanished before it was published
+//! ("cannot publish the cache entry …: manifest.json missing (partial entry)").
 
 mod common;
 use common::{SMALL, TempProject};
@@ -212,4 +218,98 @@ fn a_reader_never_sees_files_of_two_runs() {
     let (reads, mixed) = reader.join().unwrap();
     assert!(reads > 0, "the reader never saw a published set");
     assert_eq!(mixed, 0, "{mixed} of {reads} reads mixed two runs");
+}
+
+/// A short DEM chain as in `fig4-02`: PSD → column preparation (about a second) →
+/// snapshot, with the repository's own parameter files.
+fn column_project() -> TempProject {
+    let t = TempProject::new(
+        r#"version: 1
+stages:
+  - id: psd
+    kind: psd
+    params_file: psd-col.yaml
+  - id: prep
+    kind: dem-column-prep
+    params_file: [dem=dem-column.yaml, col-dem-prep.yaml]
+    params: { a: 0.8, area_m2: AREA }
+    inputs: { psd: psd }
+  - id: snap
+    kind: dem-snapshot
+    params: { colour_by_size: false, gate: true }
+    inputs: { column: prep }
+"#
+        .replace("AREA", "2.5e-4")
+        .as_str(),
+    );
+    t.write("psd-col.yaml", include_str!("../stages/psd-col.yaml"));
+    t.write("dem-column.yaml", include_str!("../stages/dem-column.yaml"));
+    t.write("col-dem-prep.yaml", include_str!("../stages/col-dem-prep.yaml"));
+    t
+}
+
+/// Wait until the run has put a first entry in the cache (or has exited).
+fn wait_for_an_entry(t: &TempProject, run: &mut Child) {
+    let root = Project::new(t.path()).cache.root().to_path_buf();
+    let t0 = std::time::Instant::now();
+    while t0.elapsed() < std::time::Duration::from_secs(120) && run.try_wait().unwrap().is_none() {
+        let entries = std::fs::read_dir(&root)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .any(|e| e.file_name().len() == 32);
+        if entries {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn a_clean_during_a_run_never_breaks_the_run() {
+    let mut failures = Vec::new();
+    let mut kept = 0;
+    for round in 0..ROUNDS {
+        let t = column_project();
+        let mut run = spawn(&t, &["run", "--stage", "snap", "--quiet"]);
+        // The PSD is in; the preparation is running. Land the clean at a different
+        // moment of it each round.
+        wait_for_an_entry(&t, &mut run);
+        std::thread::sleep(std::time::Duration::from_millis(60 * round as u64));
+        let (code, out, err) = t.cli(&["clean"]);
+        if code != 0 {
+            failures.push(format!("round {round}: `clean` exit {code}: {err}"));
+        }
+        kept += usize::from(out.contains("in use by a running granrepro"));
+        let done = run.wait_with_output().unwrap();
+        if !done.status.success() {
+            failures.push(format!(
+                "round {round}: `run --stage snap` exit {:?}: {}",
+                done.status.code(),
+                String::from_utf8_lossy(&done.stderr)
+            ));
+            continue;
+        }
+        for f in ["psd.json", "prep.json", "snap.json", "snap.svg"] {
+            if std::fs::read(t.path().join("reports/quick").join(f)).is_err() {
+                failures.push(format!("round {round}: reports/quick/{f} was not published"));
+            }
+        }
+        assert_cache_sound(&t);
+        // Once the run is over, a clean removes everything: no lock file is left behind.
+        let (code, _, err) = t.cli(&["clean"]);
+        assert_eq!(code, 0, "{err}");
+        assert!(
+            !t.path().join(".granrepro").exists(),
+            "a clean after the run left files"
+        );
+    }
+    assert!(
+        failures.is_empty(),
+        "{} failure(s):\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+    // Otherwise every clean missed the run and this test raced nothing.
+    assert!(kept > 0, "no clean of {ROUNDS} found the run's entries in use");
 }
