@@ -13,7 +13,7 @@
 
 mod common;
 use common::{SMALL, TempProject};
-use granrepro::pipeline::{Project, load, run::key_records};
+use granrepro::pipeline::{Output, Project, RunOptions, StageCtx, load, run::key_records};
 use std::process::{Child, Command, Stdio};
 
 fn spawn(t: &TempProject, args: &[&str]) -> Child {
@@ -312,4 +312,55 @@ fn a_clean_during_a_run_never_breaks_the_run() {
     );
     // Otherwise every clean missed the run and this test raced nothing.
     assert!(kept > 0, "no clean of {ROUNDS} found the run's entries in use");
+}
+
+/// How many more times the wrapped `psd-figure` removes its input entry before it reads it.
+static REMOVALS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// `psd-figure`, except that it first removes its input's cache entry (as a process
+/// ignoring the cache's locks would) while `REMOVALS` > 0.
+fn psd_figure_losing_its_input(ctx: &StageCtx) -> anyhow::Result<Output> {
+    let dec = |n: usize| n.checked_sub(1);
+    if REMOVALS
+        .fetch_update(
+            std::sync::atomic::Ordering::SeqCst,
+            std::sync::atomic::Ordering::SeqCst,
+            dec,
+        )
+        .is_ok()
+    {
+        std::fs::remove_dir_all(&ctx.inputs["psd"][0].dir)?;
+    }
+    (granrepro::stages::registry()["psd-figure"].run)(ctx)
+}
+
+/// An input entry that vanishes between planning and reading is recomputed, and a run
+/// whose input keeps vanishing fails saying so (after `MAX_REPLANS` recomputations).
+#[test]
+fn an_input_that_vanished_is_recomputed_a_bounded_number_of_times() {
+    use granrepro::pipeline::run::{MAX_REPLANS, run};
+    let opts = RunOptions {
+        targets: vec!["fig-a".into()],
+        jobs: 1,
+        quiet: true,
+        ..RunOptions::default()
+    };
+    for (removals, ok) in [(1, true), (MAX_REPLANS, true), (MAX_REPLANS + 1, false)] {
+        let t = TempProject::new(SMALL);
+        let mut p = load(&t.pipeline(), "quick", &[]).unwrap();
+        p.kinds.get_mut("psd-figure").unwrap().run = psd_figure_losing_its_input;
+        REMOVALS.store(removals, std::sync::atomic::Ordering::SeqCst);
+        let summary = run(&p, &Project::new(t.path()), &opts).unwrap();
+        assert_eq!(summary.failed(), !ok, "{removals} removal(s): {:?}", summary.stages);
+        if ok {
+            assert!(t.path().join("reports/quick/fig-a.svg").is_file());
+            assert!(t.path().join("reports/quick/psd-a.json").is_file());
+            assert_cache_sound(&t);
+        } else {
+            let msg = format!("{:?}", summary.stages);
+            assert!(msg.contains("input `psd-a`"), "{msg}");
+            assert!(msg.contains("vanished from the cache"), "{msg}");
+            assert!(msg.contains(&format!("{} times", MAX_REPLANS + 1)), "{msg}");
+        }
+    }
 }

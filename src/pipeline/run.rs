@@ -1,7 +1,11 @@
 //! Planning and running stages: keys computed before anything runs, cached stages
 //! served from the cache, the rest run in dependency order with up to `jobs` stages at
 //! once, each writing its cache entry atomically and a run record, then published to
-//! `reports/<profile>/`.
+//! `reports/<profile>/`. Every entry of the plan is marked in use ([`Cache::hold`]) from
+//! before the first lookup until it is published, so a concurrent `clean` keeps it. An
+//! input entry that vanishes anyway before a stage has read it (removed by hand, or by a
+//! process without working locks) is planned again and recomputed, at most
+//! [`MAX_REPLANS`] times, before the stages needing it fail saying so.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -274,65 +278,6 @@ pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
             (s.id.clone(), f)
         })
         .collect()
-}
-
-/// `clean` of the cache and state: the entries and state of `profile` (all when `None`).
-/// Returns one line per thing removed.
-pub fn clean_state(proj: &Project, profile: Option<&str>) -> std::io::Result<Vec<String>> {
-    let mut msgs = Vec::new();
-    let cleaned = proj.cache.clean(profile)?;
-    let n = cleaned.removed;
-    if n > 0 {
-        msgs.push(format!(
-            "removed {n} cache entr{} {}from {}",
-            if n == 1 { "y" } else { "ies" },
-            profile.map(|p| format!("of profile `{p}` ")).unwrap_or_default(),
-            proj.cache.root().display()
-        ));
-    }
-    if !cleaned.in_use.is_empty() {
-        let k = cleaned.in_use.len();
-        let names: Vec<String> = cleaned
-            .in_use
-            .iter()
-            .map(|(key, id)| id.clone().unwrap_or_else(|| key.clone()))
-            .collect();
-        msgs.push(format!(
-            "kept {k} cache entr{} in use by a running granrepro: {}; `granrepro clean` again once it has finished removes {}",
-            if k == 1 { "y" } else { "ies" },
-            names.join(", "),
-            if k == 1 { "it" } else { "them" }
-        ));
-    }
-    let profiles: Vec<&str> = match profile {
-        Some(p) => vec![p],
-        None => super::spec::PROFILES.to_vec(),
-    };
-    for p in profiles {
-        let dir = proj.state.join(p);
-        let Ok(rd) = std::fs::read_dir(&dir) else { continue };
-        let mut k = 0;
-        for e in rd.flatten() {
-            if e.file_name().to_string_lossy().ends_with(".json") {
-                std::fs::remove_file(e.path()).map_err(super::fsio::err_at("cannot remove", &e.path()))?;
-                k += 1;
-            }
-        }
-        let _ = std::fs::remove_dir(&dir);
-        if k > 0 {
-            msgs.push(format!(
-                "removed the state of {k} stage(s) of profile `{p}` from {}",
-                dir.display()
-            ));
-        }
-    }
-    for d in [proj.state.clone(), proj.root.join(".granrepro")] {
-        let _ = std::fs::remove_dir(&d); // only when empty
-    }
-    if msgs.is_empty() {
-        msgs.push("nothing to remove".into());
-    }
-    Ok(msgs)
 }
 
 /// When `reports/` holds another run of a stage than the cache entry `key` (e.g. one
@@ -647,17 +592,19 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
             }
         }
     });
-    publish_all(p, proj, &summary, &mp, opts.quiet)?;
+    publish_all(p, proj, &mut summary, &mp, opts.quiet)?;
     Ok(summary)
 }
 
 /// Withdraw the outputs of stages no longer in the pipeline, publish every stage with a
 /// valid entry (each as one set), withdraw the outputs of failed or skipped stages
 /// (nothing stale stays on show), then rebuild the index from the pipeline's stage list.
+/// A stage whose entry has vanished since it ran (removed by a process ignoring the locks)
+/// is marked failed, and withdrawn.
 fn publish_all(
     p: &Pipeline,
     proj: &Project,
-    summary: &RunSummary,
+    summary: &mut RunSummary,
     mp: &MultiProgress,
     quiet: bool,
 ) -> Result<(), RunError> {
@@ -694,7 +641,17 @@ fn publish_all(
         profile: &p.profile,
         errors: &errors,
     };
-    for r in &summary.stages {
+    for r in &mut summary.stages {
+        if matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. }) {
+            // Only a process ignoring the cache's locks removes an entry this run holds.
+            if let Err(why) = proj.cache.present(&r.key) {
+                let msg = format!(
+                    "its cache entry vanished before it was published ({why}): another process removed it; run again"
+                );
+                say(mp, format!("  FAILED  {}: {msg}", r.id));
+                r.outcome = Outcome::Failed(msg);
+            }
+        }
         match r.outcome {
             Outcome::Cached | Outcome::Ran { .. } => {
                 let overrides = p.get(&r.id).map(|s| s.overrides.as_slice()).unwrap_or(&[]);
@@ -738,7 +695,7 @@ fn write_state(proj: &Project, profile: &str, id: &str, rec: &KeyRecord) {
 
 /// How often a run recomputes one input entry that vanished from the cache under it
 /// before it gives up on the stages that need it.
-const MAX_REPLANS: usize = 3;
+pub const MAX_REPLANS: usize = 3;
 
 /// Why [`run_one`] did not produce an entry.
 enum StageError {
