@@ -1,5 +1,10 @@
-//! Many processes, one cache (issue 8, finding 1): concurrent `granrepro run`s on one
-//! project must all succeed and leave only complete entries and no temp directories.
+//! Contract: many processes, one cache. Concurrent `granrepro run`s and `clean`s on one
+//! project all succeed; every run publishes its outputs; the cache holds only complete
+//! entries and no temp directories; an input entry removed under a run is recomputed (a
+//! bounded number of times, then the run fails naming it).
+//!
+//! Issue 8, finding 1: concurrent `granrepro run`s on one project must all succeed and
+//! leave only complete entries and no temp directories.
 //!
 //! Root cause of the failure this guards against: `Cache::store` removed a finished entry
 //! and renamed a new one over it while another process was reading it ("cannot write the
