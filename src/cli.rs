@@ -862,7 +862,7 @@ fn clean(pipeline: &Path, proj: &Project, reports: bool, profile: Option<&str>) 
         None => crate::pipeline::spec::PROFILES.to_vec(),
     };
     let mut code = 0;
-    match crate::pipeline::run::clean_state(proj, profile) {
+    match crate::pipeline::clean::clean_state(proj, profile) {
         Ok(msgs) => msgs.iter().for_each(|m| println!("{m}")),
         Err(e) => {
             eprintln!("error: {e}");

@@ -21,18 +21,34 @@
 //! removed and recomputed, never used.
 //!
 //! **Many processes, one cache** (on one machine or a shared filesystem with working
-//! `flock`): an entry, once complete, is never removed or replaced by a writer. A writer
-//! moves its finished temp directory into place under an advisory lock per key
-//! (`.locks/<key>.lock`); when a complete entry is already there it discards its own
-//! copy. Readers take no lock: an entry directory appears by one rename, complete, so a
+//! `flock`): an entry, once complete, is never removed or replaced by a writer (except
+//! by a forced re-run whose artifacts differ, see [`Cache::store`]), and never removed by
+//! `clean` while a process uses it. Each key has two lock files:
+//! - `.locks/<key>.use`, held *shared* by every process using the entry: a run takes it
+//!   ([`Cache::hold`]) for every key of its plan (its stages and their inputs) before it
+//!   looks any of them up, and keeps it until it has published them; [`Cache::store`]
+//!   holds it while its temp directory exists. `clean` takes it *exclusively without
+//!   waiting*: a key whose lock is held is kept (and reported), never waited for.
+//! - `.locks/<key>.lock`, held *exclusively* for the moment an entry is put in place or
+//!   removed. A writer moves its finished temp directory into place under it; when a
+//!   complete entry is already there it discards its own copy.
+//!
+//! Readers take no other lock: an entry directory appears by one rename, complete, so a
 //! reader sees all of it or nothing. A corrupt entry is removed only under the key's
 //! lock, after verifying it again, by renaming it aside first. Temp and trash
-//! directories older than [`STALE_TMP_AGE`] (left by killed runs) are swept at the start
-//! of each run.
+//! directories older than [`STALE_TMP_AGE`] whose key nobody holds (left by killed runs)
+//! are swept at the start of each run. Lock files are unlinked only by `clean`, while it
+//! holds both exclusively, and every locker checks after acquiring that the file it
+//! locked is still the one at the path (`fsio::lock`), so unlinking never lets two
+//! processes hold one lock. An entry that vanishes anyway (removed by hand, by a process
+//! on a filesystem without `flock`) while a run needs it as an input is recomputed by
+//! that run, at most a few times (`run`).
 //!
 //! **Known limits**: the code of a kind is not hashed — bump its `version` when its
 //! numerics change. Two processes computing the same key both compute it (the second
-//! result is discarded, not waited for).
+//! result is discarded, not waited for). A run keeps one open file per key of its plan
+//! (a few hundred for the whole pipeline). `clean` during a run leaves the run's entries
+//! in place; a second `clean` after the run removes them.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -109,6 +125,22 @@ pub enum Lookup {
     Corrupt(String),
 }
 
+/// Entries marked in use by this process ([`Cache::hold`]); released on drop.
+#[derive(Debug)]
+pub struct InUse {
+    _locks: Vec<fsio::Lock>,
+}
+
+/// What [`Cache::clean`] did.
+#[derive(Debug, Default)]
+pub struct Cleaned {
+    /// Entries removed.
+    pub removed: usize,
+    /// Entries kept because a running process is using them: key, and the stage named in
+    /// the entry's run record when it is readable.
+    pub in_use: Vec<(String, Option<String>)>,
+}
+
 /// Temp (`.tmp-*`) and trash (`.trash-*`) directories older than this are left over
 /// from killed runs and are removed at the start of a run.
 pub const STALE_TMP_AGE: Duration = Duration::from_secs(3600);
@@ -146,8 +178,15 @@ impl Cache {
     pub fn entry_dir(&self, key: &str) -> PathBuf {
         self.root.join(key)
     }
+    /// The lock that serialises putting `key`'s entry in place or removing it (exclusive,
+    /// held for a rename or a removal).
     fn lock_path(&self, key: &str) -> PathBuf {
         self.root.join(".locks").join(format!("{key}.lock"))
+    }
+    /// The lock that says `key`'s entry is in use (shared, held by every run that reads or
+    /// writes it; see [`Cache::hold`]).
+    fn use_path(&self, key: &str) -> PathBuf {
+        self.root.join(".locks").join(format!("{key}.use"))
     }
 
     /// Look an entry up and verify it against its manifest. A corrupt entry is removed
@@ -194,6 +233,19 @@ impl Cache {
         Ok(())
     }
 
+    /// Is the entry still there: its manifest readable and every file it lists present?
+    /// A cheap check (nothing hashed) for an entry verified earlier, which another process
+    /// may have removed since.
+    pub fn present(&self, key: &str) -> Result<(), String> {
+        let dir = self.entry_dir(key);
+        for (name, _) in read_manifest(&dir)?.all_files() {
+            if !safe_file_name(name) || !dir.join(name).is_file() {
+                return Err(format!("{name}: missing"));
+            }
+        }
+        Ok(())
+    }
+
     /// Names of the files an entry holds, from its manifest (artifacts and the record).
     /// Anything else found in the directory is not part of the entry.
     pub fn entry_files(&self, key: &str) -> Result<Vec<String>, String> {
@@ -217,8 +269,8 @@ impl Cache {
         Some(blake3::hash(&serde_json::to_vec(&canon).ok()?).to_hex().to_string())
     }
 
-    /// Remove `.tmp-*` / `.trash-*` directories older than `age` (left by killed runs);
-    /// returns how many were removed.
+    /// Remove `.tmp-*` / `.trash-*` directories older than `age` (left by killed runs)
+    /// whose key no process is using; returns how many were removed.
     pub fn sweep_stale(&self, age: Duration) -> usize {
         let Ok(rd) = std::fs::read_dir(&self.root) else {
             return 0;
@@ -226,10 +278,18 @@ impl Cache {
         let mut n = 0;
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
-            if (name.starts_with(".tmp-") || name.starts_with(".trash-"))
-                && fsio::older_than(&e.path(), age)
-                && std::fs::remove_dir_all(e.path()).is_ok()
-            {
+            if !(name.starts_with(".tmp-") || name.starts_with(".trash-")) || !fsio::older_than(&e.path(), age) {
+                continue;
+            }
+            // A live writer of that key holds its `.use` lock: not stale, however old.
+            let _guard = match scratch_key(&name) {
+                Some(k) => match fsio::try_lock(&self.use_path(k)) {
+                    Ok(Some(l)) => Some(l),
+                    _ => continue,
+                },
+                None => None,
+            };
+            if std::fs::remove_dir_all(e.path()).is_ok() {
                 n += 1;
             }
         }
@@ -255,6 +315,8 @@ impl Cache {
         record: &Value,
         replace: bool,
     ) -> anyhow::Result<(PathBuf, Vec<String>)> {
+        // The temp directory lives while this is held, so no `clean` removes it under us.
+        let _in_use = fsio::lock_shared(&self.use_path(key))?;
         fsio::create_dir_all(&self.root)?;
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".tmp-{key}-"))
@@ -324,32 +386,98 @@ impl Cache {
         Ok((self.commit(key, tmp.keep())?, changed))
     }
 
-    /// Remove the entries of `profile` (every entry, temp directory and lock when
-    /// `None`); returns how many entries were removed. Only directories named like keys,
-    /// `.tmp-*`, `.trash-*` and `.locks` are touched.
-    pub fn clean(&self, profile: Option<&str>) -> std::io::Result<usize> {
+    /// Mark the entries `keys` as in use by this process until the returned guard is
+    /// dropped: a shared lock on each key's `.locks/<key>.use`. [`Cache::clean`] and the
+    /// stale sweep leave an entry in use (and its temp and trash directories) alone. A run
+    /// takes this before it looks any of its entries up, and keeps it until it has
+    /// published them. Waits only while a `clean` is removing one of these entries.
+    pub fn hold<'a>(&self, keys: impl IntoIterator<Item = &'a str>) -> std::io::Result<InUse> {
+        let keys: std::collections::BTreeSet<&str> = keys.into_iter().collect();
+        let locks = keys
+            .into_iter()
+            .map(|k| fsio::lock_shared(&self.use_path(k)))
+            .collect::<std::io::Result<_>>()?;
+        Ok(InUse { _locks: locks })
+    }
+
+    /// Remove the entries of `profile` (every entry, with its temp and trash directories
+    /// and its lock files, when `None`) that no process is using. Each key is taken with a
+    /// non-blocking exclusive lock on its `.use` file first: an entry in use by a run (see
+    /// [`Cache::hold`]) is kept and reported in [`Cleaned::in_use`], never waited for.
+    /// Lock files are unlinked only while held ([`fsio::Lock::unlink`]); `.locks` and the
+    /// cache directory are removed only when empty. Only directories named like keys,
+    /// `.tmp-<key>-*`, `.trash-<key>-*` and `.locks/<key>.{lock,use}` are touched.
+    pub fn clean(&self, profile: Option<&str>) -> std::io::Result<Cleaned> {
+        let mut done = Cleaned::default();
         let Ok(rd) = std::fs::read_dir(&self.root) else {
-            return Ok(0);
+            return Ok(done);
         };
-        let mut n = 0;
+        // key -> its temp and trash directories (the entry itself is `root/key`)
+        let mut keys: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
-            let path = e.path();
-            let is_key = name.len() == 32 && name.chars().all(|c| c.is_ascii_hexdigit());
-            let is_scratch = name.starts_with(".tmp-") || name.starts_with(".trash-") || name == ".locks";
-            let remove = match profile {
-                None => is_key || is_scratch,
-                Some(p) => is_key && entry_profile(&path).as_deref() == Some(p),
-            };
-            if remove {
-                std::fs::remove_dir_all(&path).map_err(fsio::err_at("cannot remove", &path))?;
-                n += usize::from(is_key);
+            if is_key(&name) {
+                keys.entry(name).or_default();
+            } else if let Some(k) = scratch_key(&name) {
+                keys.entry(k.to_string()).or_default().push(e.path());
             }
         }
-        if std::fs::read_dir(&self.root).is_ok_and(|mut r| r.next().is_none()) {
-            let _ = std::fs::remove_dir(&self.root);
+        if profile.is_none() {
+            for e in std::fs::read_dir(self.root.join(".locks"))
+                .into_iter()
+                .flatten()
+                .flatten()
+            {
+                let name = e.file_name().to_string_lossy().to_string();
+                if let Some(k) = name.strip_suffix(".lock").or_else(|| name.strip_suffix(".use")) {
+                    if is_key(k) {
+                        keys.entry(k.to_string()).or_default();
+                    }
+                }
+            }
         }
-        Ok(n)
+        for (key, scratch) in keys {
+            let entry = self.entry_dir(&key);
+            let has_entry = entry.is_dir();
+            if let Some(p) = profile {
+                if !has_entry || entry_profile(&entry).as_deref() != Some(p) {
+                    continue;
+                }
+            }
+            // Every writer of `key` holds its `.use` lock shared, so holding it exclusively
+            // means nobody is reading, writing or committing this entry.
+            let Some(in_use) = fsio::try_lock(&self.use_path(&key))? else {
+                if has_entry {
+                    done.in_use.push((key.clone(), entry_stage(&entry)));
+                }
+                continue;
+            };
+            let Some(commit) = fsio::try_lock(&self.lock_path(&key))? else {
+                if has_entry {
+                    done.in_use.push((key.clone(), entry_stage(&entry)));
+                }
+                continue;
+            };
+            if has_entry {
+                fsio::discard_dir(&entry)?;
+                done.removed += 1;
+            }
+            for d in scratch {
+                match std::fs::remove_dir_all(&d) {
+                    Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                        return Err(fsio::at("cannot remove", &d, e));
+                    }
+                    _ => {}
+                }
+            }
+            if profile.is_none() {
+                commit.unlink()?;
+                in_use.unlink()?;
+            }
+        }
+        let _ = std::fs::remove_dir(self.root.join(".locks")); // only when empty
+        let _ = std::fs::remove_dir(&self.root); // only when empty
+        Ok(done)
     }
 
     /// Move a finished temp directory into place as the entry `key` (see [`Cache::store`]).
@@ -378,6 +506,24 @@ impl Cache {
             std::io::Error::other("it kept changing under the lock"),
         ))
     }
+}
+
+/// Is `name` a cache key (32 hex digits)?
+fn is_key(name: &str) -> bool {
+    name.len() == 32 && name.chars().all(|c| c.is_ascii_hexdigit())
+}
+
+/// The key of a temp (`.tmp-<key>-*`) or trash (`.trash-<key>-*`) directory name.
+fn scratch_key(name: &str) -> Option<&str> {
+    let rest = name.strip_prefix(".tmp-").or_else(|| name.strip_prefix(".trash-"))?;
+    let k = rest.get(..32)?;
+    (is_key(k) && rest[32..].starts_with('-')).then_some(k)
+}
+
+/// The stage recorded in an entry's run record (for messages).
+fn entry_stage(dir: &Path) -> Option<String> {
+    let v: Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()?;
+    v.get("stage")?.as_str().map(str::to_string)
 }
 
 /// The profile recorded in an entry's run record.
@@ -427,4 +573,94 @@ fn finite(v: f64) -> Value {
     serde_json::Number::from_f64(v)
         .map(Value::Number)
         .unwrap_or(Value::Null)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cache in a temp directory holding one complete entry; returns its key.
+    fn one_entry(dir: &Path) -> (Cache, String) {
+        let cache = Cache::new(dir.join("cache"));
+        let key = "0123456789abcdef0123456789abcdef".to_string();
+        let mut out = Output::default();
+        out.scalar("x", 1.0);
+        let record = serde_json::json!({ "stage": "psd-col", "profile": "quick" });
+        cache.store(&key, "psd-col", "quick", &mut out, &record, false).unwrap();
+        assert!(matches!(cache.lookup(&key), Lookup::Fresh(_)));
+        (cache, key)
+    }
+
+    #[test]
+    fn clean_skips_an_entry_in_use_and_removes_it_once_released() {
+        let tmp = tempfile::tempdir().unwrap();
+        let (cache, key) = one_entry(tmp.path());
+        let held = cache.hold([key.as_str()]).unwrap();
+        let cleaned = cache.clean(None).unwrap();
+        assert_eq!(cleaned.removed, 0);
+        assert_eq!(cleaned.in_use, vec![(key.clone(), Some("psd-col".to_string()))]);
+        assert!(
+            cache.verify(&cache.entry_dir(&key), &key).is_ok(),
+            "the entry in use was touched"
+        );
+        assert!(
+            cache.use_path(&key).is_file(),
+            "the lock file a process holds was removed"
+        );
+        drop(held);
+        let cleaned = cache.clean(None).unwrap();
+        assert_eq!((cleaned.removed, cleaned.in_use.len()), (1, 0));
+        assert!(
+            !cache.root().exists(),
+            "entry, lock files and the cache directory are all gone"
+        );
+    }
+
+    #[test]
+    fn a_profile_clean_skips_an_entry_in_use_too() {
+        let tmp = tempfile::tempdir().unwrap();
+        let (cache, key) = one_entry(tmp.path());
+        let _held = cache.hold([key.as_str()]).unwrap();
+        assert_eq!(cache.clean(Some("quick")).unwrap().in_use.len(), 1);
+        assert!(cache.verify(&cache.entry_dir(&key), &key).is_ok());
+    }
+
+    #[test]
+    fn clean_keeps_the_temp_directory_of_a_live_writer_and_removes_a_dead_ones() {
+        let tmp = tempfile::tempdir().unwrap();
+        let cache = Cache::new(tmp.path().join("cache"));
+        let key = "fedcba9876543210fedcba9876543210";
+        let scratch = cache.root().join(format!(".tmp-{key}-abc123"));
+        std::fs::create_dir_all(&scratch).unwrap();
+        std::fs::write(scratch.join("table.csv"), "x\n1\n").unwrap();
+        let held = cache.hold([key]).unwrap(); // what `store` holds while it writes there
+        cache.clean(None).unwrap();
+        assert!(
+            scratch.join("table.csv").is_file(),
+            "a live writer's temp directory was removed"
+        );
+        drop(held); // the writer died
+        cache.clean(None).unwrap();
+        assert!(!scratch.exists());
+    }
+
+    #[test]
+    fn a_lock_whose_file_was_unlinked_by_its_holder_is_taken_on_the_new_file() {
+        let tmp = tempfile::tempdir().unwrap();
+        let path = tmp.path().join(".locks").join("k.use");
+        let first = fsio::try_lock(&path).unwrap().unwrap();
+        // Another locker opens the same file and waits on it.
+        let waiter = {
+            let path = path.clone();
+            std::thread::spawn(move || fsio::lock_shared(&path).unwrap())
+        };
+        std::thread::sleep(Duration::from_millis(100));
+        first.unlink().unwrap();
+        let got = waiter.join().unwrap();
+        // It holds the file now at the path, so an exclusive locker of the path is excluded.
+        assert!(path.is_file());
+        assert!(fsio::try_lock(&path).unwrap().is_none(), "two holders of one lock path");
+        drop(got);
+        assert!(fsio::try_lock(&path).unwrap().is_some());
+    }
 }

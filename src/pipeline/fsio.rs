@@ -1,7 +1,9 @@
 //! File-system helpers for the pipeline: every error names its path, files are created
 //! mode 0644 and directories 0755 (reports and state are meant to be read by a web
 //! server or a colleague), writes are atomic (temp file in the same directory, fsync,
-//! rename), and per-key advisory locks (`flock`, released when the process dies).
+//! rename), and advisory locks (`flock`: exclusive, shared or tried without waiting;
+//! released when the process dies; a lock file is unlinked only by its exclusive holder,
+//! and lockers check that the file they locked is still the one at the path).
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, Write};
@@ -75,24 +77,105 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
 }
 
 /// A held advisory lock; released on drop (or when the process dies).
+///
+/// Lock files may be unlinked, but only by a holder of the exclusive lock
+/// ([`Lock::unlink`]); every locker checks after acquiring that the file it locked is
+/// still the one at the path, and starts again otherwise. So an unlinked lock file never
+/// splits the lockers of one path into two groups that exclude nobody.
 #[derive(Debug)]
 pub struct Lock {
     _file: File,
+    path: PathBuf,
+}
+
+impl Lock {
+    /// Remove the lock file while holding it (exclusive holders only), then release it.
+    /// A process waiting on the old file sees, once it acquires it, that the path no
+    /// longer names it and locks the path anew.
+    pub fn unlink(self) -> io::Result<()> {
+        match std::fs::remove_file(&self.path) {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+            Err(e) => Err(at("cannot remove the lock file", &self.path, e)),
+        }
+    }
+}
+
+/// How to take a lock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    Exclusive,
+    Shared,
+    TryExclusive,
 }
 
 /// Take the exclusive advisory lock `path` (created if needed), waiting for it.
 pub fn lock(path: &Path) -> io::Result<Lock> {
-    if let Some(d) = path.parent() {
-        create_dir_all(d)?;
+    Ok(take(path, Mode::Exclusive)?.expect("a blocking lock is always taken"))
+}
+
+/// Take the shared advisory lock `path` (created if needed), waiting while an exclusive
+/// holder has it. Shared holders do not exclude one another.
+pub fn lock_shared(path: &Path) -> io::Result<Lock> {
+    Ok(take(path, Mode::Shared)?.expect("a blocking lock is always taken"))
+}
+
+/// Take the exclusive advisory lock `path` if nobody holds it (shared or exclusive);
+/// `None` when someone does. Never waits.
+pub fn try_lock(path: &Path) -> io::Result<Option<Lock>> {
+    take(path, Mode::TryExclusive)
+}
+
+fn take(path: &Path, mode: Mode) -> io::Result<Option<Lock>> {
+    // Each retry means an exclusive holder unlinked the file we locked (or the directory
+    // we were about to create it in) in between; that happens a handful of times at most.
+    for _ in 0..1000 {
+        if let Some(d) = path.parent() {
+            create_dir_all(d)?;
+        }
+        let f = match OpenOptions::new().create(true).truncate(false).write(true).open(path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => continue, // directory removed meanwhile
+            Err(e) => return Err(at("cannot open the lock file", path, e)),
+        };
+        match mode {
+            Mode::Exclusive => f.lock().map_err(err_at("cannot lock", path))?,
+            Mode::Shared => f.lock_shared().map_err(err_at("cannot lock", path))?,
+            Mode::TryExclusive => match f.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => return Ok(None),
+                Err(std::fs::TryLockError::Error(e)) => return Err(at("cannot lock", path, e)),
+            },
+        }
+        if same_file(&f, path) {
+            return Ok(Some(Lock {
+                _file: f,
+                path: path.to_path_buf(),
+            }));
+        }
     }
-    let f = OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(path)
-        .map_err(err_at("cannot open the lock file", path))?;
-    f.lock().map_err(err_at("cannot lock", path))?;
-    Ok(Lock { _file: f })
+    Err(at(
+        "cannot lock",
+        path,
+        io::Error::other("the lock file kept being removed and re-created"),
+    ))
+}
+
+/// Is the open file `f` the file now at `path`?
+fn same_file(f: &File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (f.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = f;
+        path.exists()
+    }
 }
 
 /// Remove a directory tree without ever leaving it half-deleted under its name: rename

@@ -2,6 +2,7 @@
 //! needs, run them through the content-addressed cache, publish reports.
 pub mod cache;
 pub mod check;
+pub mod clean;
 pub mod context;
 pub mod dag;
 pub mod diag;

@@ -1,7 +1,11 @@
 //! Planning and running stages: keys computed before anything runs, cached stages
 //! served from the cache, the rest run in dependency order with up to `jobs` stages at
 //! once, each writing its cache entry atomically and a run record, then published to
-//! `reports/<profile>/`.
+//! `reports/<profile>/`. Every entry of the plan is marked in use ([`Cache::hold`]) from
+//! before the first lookup until it is published, so a concurrent `clean` keeps it. An
+//! input entry that vanishes anyway before a stage has read it (removed by hand, or by a
+//! process without working locks) is planned again and recomputed, at most
+//! [`MAX_REPLANS`] times, before the stages needing it fail saying so.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -276,50 +280,6 @@ pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
         .collect()
 }
 
-/// `clean` of the cache and state: the entries and state of `profile` (all when `None`).
-/// Returns one line per thing removed.
-pub fn clean_state(proj: &Project, profile: Option<&str>) -> std::io::Result<Vec<String>> {
-    let mut msgs = Vec::new();
-    let n = proj.cache.clean(profile)?;
-    if n > 0 {
-        msgs.push(format!(
-            "removed {n} cache entr{} {}from {}",
-            if n == 1 { "y" } else { "ies" },
-            profile.map(|p| format!("of profile `{p}` ")).unwrap_or_default(),
-            proj.cache.root().display()
-        ));
-    }
-    let profiles: Vec<&str> = match profile {
-        Some(p) => vec![p],
-        None => super::spec::PROFILES.to_vec(),
-    };
-    for p in profiles {
-        let dir = proj.state.join(p);
-        let Ok(rd) = std::fs::read_dir(&dir) else { continue };
-        let mut k = 0;
-        for e in rd.flatten() {
-            if e.file_name().to_string_lossy().ends_with(".json") {
-                std::fs::remove_file(e.path()).map_err(super::fsio::err_at("cannot remove", &e.path()))?;
-                k += 1;
-            }
-        }
-        let _ = std::fs::remove_dir(&dir);
-        if k > 0 {
-            msgs.push(format!(
-                "removed the state of {k} stage(s) of profile `{p}` from {}",
-                dir.display()
-            ));
-        }
-    }
-    for d in [proj.state.clone(), proj.root.join(".granrepro")] {
-        let _ = std::fs::remove_dir(&d); // only when empty
-    }
-    if msgs.is_empty() {
-        msgs.push("nothing to remove".into());
-    }
-    Ok(msgs)
-}
-
 /// When `reports/` holds another run of a stage than the cache entry `key` (e.g. one
 /// made with `--set`), say so: the reports are not what the pipeline now gives.
 fn published_elsewhere(proj: &Project, profile: &str, id: &str, key: &str) -> Option<String> {
@@ -433,6 +393,16 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
     }
 
     proj.cache.sweep_stale(STALE_TMP_AGE);
+    // Every entry this run reads or writes is marked in use before any is looked up and
+    // until all are published, so a concurrent `clean` keeps them.
+    let _in_use = proj.cache.hold(
+        set.iter()
+            .flat_map(|id| {
+                let ins = p.get(id).unwrap().inputs.iter().flat_map(|(_, v)| v.iter());
+                std::iter::once(id).chain(ins)
+            })
+            .map(|id| keys[id].1.as_str()),
+    )?;
     let mp = MultiProgress::with_draw_target(if opts.quiet {
         ProgressDrawTarget::hidden()
     } else {
@@ -444,7 +414,9 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
     let mut done: HashMap<String, bool> = HashMap::new(); // id -> ok
     // running stage -> threads of its pool
     let mut running: HashMap<String, usize> = HashMap::new();
-    let (tx, rx) = mpsc::channel::<(String, Result<(f64, Vec<String>), String>)>();
+    // input id -> how many times it was recomputed because it vanished from the cache
+    let mut replanned: HashMap<String, usize> = HashMap::new();
+    let (tx, rx) = mpsc::channel::<(String, Result<(f64, Vec<String>), StageError>)>();
     std::thread::scope(|scope| {
         loop {
             let mut progressed = false;
@@ -535,7 +507,9 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                         .build()
                     {
                         Ok(pool) => pool.install(|| run_one(p, proj, &stage, keys, pb.clone(), replace)),
-                        Err(e) => Err(format!("cannot start a thread pool of {threads} thread(s): {e}")),
+                        Err(e) => Err(StageError::Failed(format!(
+                            "cannot start a thread pool of {threads} thread(s): {e}"
+                        ))),
                     };
                     pb.finish_and_clear();
                     let _ = tx.send((stage.id.clone(), r));
@@ -572,7 +546,40 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                             outcome: Outcome::Ran { wall_s },
                         });
                     }
-                    Err(msg) => {
+                    Err(StageError::InputGone { input, why }) => {
+                        // Another process removed an input entry between planning and
+                        // reading: plan that input again (recomputed unless someone has
+                        // put it back meanwhile); this stage waits for it once more.
+                        let n = replanned.entry(input.clone()).or_insert(0);
+                        *n += 1;
+                        let (n, again) = (*n, in_set.contains(&input) && *n <= MAX_REPLANS);
+                        let msg = format!(
+                            "input `{input}` (key {}) vanished from the cache while this run needed it ({why})",
+                            keys[&input].1
+                        );
+                        if again {
+                            say(&mp, format!("  note    {id}: {msg}; recomputing it"));
+                            if done.remove(&input).is_some() {
+                                summary.stages.retain(|s| s.id != input);
+                            }
+                        } else {
+                            let msg = if in_set.contains(&input) {
+                                format!(
+                                    "{msg}, {n} times; another process keeps removing it (a `granrepro clean` on a filesystem without working flock, or by hand)"
+                                )
+                            } else {
+                                format!("{msg}; run it again (`granrepro run --stage {input}`) and then this stage")
+                            };
+                            say(&mp, format!("  FAILED  {id}: {msg}"));
+                            done.insert(id.clone(), false);
+                            summary.stages.push(StageReport {
+                                id,
+                                key,
+                                outcome: Outcome::Failed(msg),
+                            });
+                        }
+                    }
+                    Err(StageError::Failed(msg)) => {
                         say(&mp, format!("  FAILED  {id}: {msg}"));
                         done.insert(id.clone(), false);
                         summary.stages.push(StageReport {
@@ -585,17 +592,19 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
             }
         }
     });
-    publish_all(p, proj, &summary, &mp, opts.quiet)?;
+    publish_all(p, proj, &mut summary, &mp, opts.quiet)?;
     Ok(summary)
 }
 
 /// Withdraw the outputs of stages no longer in the pipeline, publish every stage with a
 /// valid entry (each as one set), withdraw the outputs of failed or skipped stages
 /// (nothing stale stays on show), then rebuild the index from the pipeline's stage list.
+/// A stage whose entry has vanished since it ran (removed by a process ignoring the locks)
+/// is marked failed, and withdrawn.
 fn publish_all(
     p: &Pipeline,
     proj: &Project,
-    summary: &RunSummary,
+    summary: &mut RunSummary,
     mp: &MultiProgress,
     quiet: bool,
 ) -> Result<(), RunError> {
@@ -632,7 +641,17 @@ fn publish_all(
         profile: &p.profile,
         errors: &errors,
     };
-    for r in &summary.stages {
+    for r in &mut summary.stages {
+        if matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. }) {
+            // Only a process ignoring the cache's locks removes an entry this run holds.
+            if let Err(why) = proj.cache.present(&r.key) {
+                let msg = format!(
+                    "its cache entry vanished before it was published ({why}): another process removed it; run again"
+                );
+                say(mp, format!("  FAILED  {}: {msg}", r.id));
+                r.outcome = Outcome::Failed(msg);
+            }
+        }
         match r.outcome {
             Outcome::Cached | Outcome::Ran { .. } => {
                 let overrides = p.get(&r.id).map(|s| s.overrides.as_slice()).unwrap_or(&[]);
@@ -674,6 +693,19 @@ fn write_state(proj: &Project, profile: &str, id: &str, rec: &KeyRecord) {
     }
 }
 
+/// How often a run recomputes one input entry that vanished from the cache under it
+/// before it gives up on the stages that need it.
+pub const MAX_REPLANS: usize = 3;
+
+/// Why [`run_one`] did not produce an entry.
+enum StageError {
+    /// The stage failed; the message.
+    Failed(String),
+    /// An input's entry was no longer complete when the stage read it (removed by
+    /// another process): the input's id, and what was wrong with the entry.
+    InputGone { input: String, why: String },
+}
+
 /// Run one stage and store its entry; the wall time and, for a forced re-run (`replace`),
 /// the files whose bytes differ from the entry it replaced.
 fn run_one(
@@ -683,8 +715,18 @@ fn run_one(
     keys: &HashMap<String, (KeyRecord, String)>,
     pb: ProgressBar,
     replace: bool,
-) -> Result<(f64, Vec<String>), String> {
+) -> Result<(f64, Vec<String>), StageError> {
     let (rec, key) = &keys[&st.id];
+    // The first input whose entry is no longer complete, if any.
+    let gone = || {
+        st.inputs.iter().flat_map(|(_, ids)| ids.iter()).find_map(|id| {
+            let why = proj.cache.present(&keys[id].1).err()?;
+            Some(StageError::InputGone { input: id.clone(), why })
+        })
+    };
+    if let Some(g) = gone() {
+        return Err(g);
+    }
     // Clear the old state first so an interrupted run can never look fresh.
     let _ = std::fs::remove_file(proj.state_file(&p.profile, &st.id));
     let kind = p.kinds[st.kind.as_str()];
@@ -718,14 +760,15 @@ fn run_one(
     let wall_s = t0.elapsed().as_secs_f64();
     let mut out: Output = match res {
         Ok(Ok(o)) => o,
-        Ok(Err(e)) => return Err(format!("{e:#}")),
+        // A stage that failed because an input vanished while it read it is run again.
+        Ok(Err(e)) => return Err(gone().unwrap_or_else(|| StageError::Failed(format!("{e:#}")))),
         Err(panic) => {
             let msg = panic
                 .downcast_ref::<String>()
                 .cloned()
                 .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                 .unwrap_or_else(|| "panic".into());
-            return Err(format!("internal error (panic): {msg}"));
+            return Err(gone().unwrap_or_else(|| StageError::Failed(format!("internal error (panic): {msg}"))));
         }
     };
     let input_hashes: Vec<Value> = st
@@ -743,7 +786,7 @@ fn run_one(
     let (_, changed) = proj
         .cache
         .store(key, &st.id, &p.profile, &mut out, &record, replace)
-        .map_err(|e| format!("cannot write the cache entry: {e:#}"))?;
+        .map_err(|e| StageError::Failed(format!("cannot write the cache entry: {e:#}")))?;
     write_state(proj, &p.profile, &st.id, rec);
     Ok((wall_s, changed))
 }
