@@ -3,7 +3,7 @@
 //! schema before any member id is formed), the input roles each kind reads, and one
 //! message per root cause.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use serde_json::Value as Json;
 use serde_yaml::Value as Yaml;
@@ -166,6 +166,82 @@ pub fn matrix_key(
         }
     }
     Ok(MatrixKey::Param)
+}
+
+/// The matrix key of every raw stage entry that sweeps one (for telling a pairing key
+/// from a misspelt parameter).
+pub(super) fn matrix_keys(raw: &[Yaml]) -> HashMap<String, String> {
+    let mut out = HashMap::new();
+    for e in raw {
+        let (Some(id), Some(Yaml::Mapping(m))) = (e.get("id").and_then(|v| v.as_str()), e.get("matrix")) else {
+            continue;
+        };
+        if let (1, Some(k)) = (m.len(), m.keys().next().and_then(|k| k.as_str())) {
+            out.insert(id.to_string(), k.to_string());
+        }
+    }
+    out
+}
+
+/// The line of a YAML error: where the parser stopped, or for errors without a place
+/// (a second document) the second document's `---`, else line 1.
+pub(super) fn error_line(e: &serde_yaml::Error, text: &str) -> Option<usize> {
+    e.location().map(|l| l.line()).or_else(|| {
+        let docs: Vec<usize> = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.starts_with("---") || l.starts_with("..."))
+            .map(|(i, _)| i + 1)
+            .collect();
+        docs.iter().find(|&&l| l > 1).or(docs.first()).copied().or(Some(1))
+    })
+}
+
+/// serde's "data did not match any variant of untagged enum" for `inputs` or
+/// `params_file` names neither the role nor what is allowed: find the offending entry in
+/// the raw stage. (key, message, help).
+pub(super) fn untagged_problem(raw: &Yaml, inner: &str) -> Option<(String, String, String)> {
+    let ids = |v: &Yaml| v.is_string() || v.as_sequence().is_some_and(|s| s.iter().all(Yaml::is_string));
+    let shown = |v: &Yaml| serde_yaml::to_string(v).unwrap_or_default().trim().replace('\n', " ");
+    if inner.contains("untagged enum InputsSpec") {
+        let help = "write `inputs: { ROLE: STAGE }`, `inputs: { ROLE: [STAGE, ..] }` or `inputs: [STAGE, ..]`";
+        let v = raw.get("inputs")?;
+        let bad = match v {
+            Yaml::Mapping(m) => m.iter().find(|(_, x)| !ids(x)).map(|(k, x)| {
+                let k = k.as_str().map(str::to_string).unwrap_or_else(|| shown(k));
+                (
+                    format!("inputs.{k}"),
+                    format!(
+                        "input `{k}` must name a stage id or a list of them (it is `{}`)",
+                        shown(x)
+                    ),
+                )
+            }),
+            Yaml::Sequence(s) => s.iter().position(|x| !x.is_string()).map(|i| {
+                (
+                    format!("inputs[{i}]"),
+                    format!("inputs[{i}] must be a stage id (it is `{}`)", shown(&s[i])),
+                )
+            }),
+            _ => None,
+        };
+        let (k, m) = bad.unwrap_or_else(|| {
+            (
+                "inputs".into(),
+                format!("inputs must be a list or a mapping (it is `{}`)", shown(v)),
+            )
+        });
+        return Some((k, m, help.into()));
+    }
+    if inner.contains("untagged enum OneOrMany") {
+        let v = raw.get("params_file")?;
+        return Some((
+            "params_file".into(),
+            format!("params_file must be a path or a list of paths (it is `{}`)", shown(v)),
+            "write `params_file: stages/X.yaml` or `params_file: [SECTION=stages/X.yaml, stages/Y.yaml]`".into(),
+        ));
+    }
+    None
 }
 
 /// How many stages a role takes.

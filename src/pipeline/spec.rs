@@ -218,9 +218,8 @@ fn merge_at(base: &mut Yaml, over: &Yaml, depth: usize) {
 }
 
 /// Set the dotted `key` of `root` to `value`, creating mappings on the way (how `--set`
-/// and matrix values enter a stage's params).
-/// A value that is neither a mapping nor empty on the way is left as it is (the kind's
-/// schema then names it), never replaced.
+/// and matrix values enter a stage's params). A value on the way that is neither a
+/// mapping nor empty is left as it is (the kind's schema then names it), never replaced.
 pub(super) fn set_path(root: &mut Yaml, key: &str, value: Yaml) {
     let mut cur = root;
     let parts: Vec<&str> = key.split('.').collect();
@@ -360,82 +359,6 @@ fn known_ids(raw: &[Yaml]) -> std::collections::HashSet<String> {
     out
 }
 
-/// The matrix key of every raw stage entry that sweeps one (for telling a pairing key
-/// from a misspelt parameter).
-fn matrix_keys(raw: &[Yaml]) -> HashMap<String, String> {
-    let mut out = HashMap::new();
-    for e in raw {
-        let (Some(id), Some(Yaml::Mapping(m))) = (e.get("id").and_then(|v| v.as_str()), e.get("matrix")) else {
-            continue;
-        };
-        if let (1, Some(k)) = (m.len(), m.keys().next().and_then(|k| k.as_str())) {
-            out.insert(id.to_string(), k.to_string());
-        }
-    }
-    out
-}
-
-/// The line of a YAML error: where the parser stopped, or for errors without a place
-/// (a second document) the second document's `---`, else line 1.
-fn error_line(e: &serde_yaml::Error, text: &str) -> Option<usize> {
-    e.location().map(|l| l.line()).or_else(|| {
-        let docs: Vec<usize> = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| l.starts_with("---") || l.starts_with("..."))
-            .map(|(i, _)| i + 1)
-            .collect();
-        docs.iter().find(|&&l| l > 1).or(docs.first()).copied().or(Some(1))
-    })
-}
-
-/// serde's "data did not match any variant of untagged enum" for `inputs` or
-/// `params_file` names neither the role nor what is allowed: find the offending entry in
-/// the raw stage. (key, message, help).
-fn untagged_problem(raw: &Yaml, inner: &str) -> Option<(String, String, String)> {
-    let ids = |v: &Yaml| v.is_string() || v.as_sequence().is_some_and(|s| s.iter().all(Yaml::is_string));
-    let shown = |v: &Yaml| serde_yaml::to_string(v).unwrap_or_default().trim().replace('\n', " ");
-    if inner.contains("untagged enum InputsSpec") {
-        let help = "write `inputs: { ROLE: STAGE }`, `inputs: { ROLE: [STAGE, ..] }` or `inputs: [STAGE, ..]`";
-        let v = raw.get("inputs")?;
-        let bad = match v {
-            Yaml::Mapping(m) => m.iter().find(|(_, x)| !ids(x)).map(|(k, x)| {
-                let k = yaml_scalar_string(k);
-                (
-                    format!("inputs.{k}"),
-                    format!(
-                        "input `{k}` must name a stage id or a list of them (it is `{}`)",
-                        shown(x)
-                    ),
-                )
-            }),
-            Yaml::Sequence(s) => s.iter().position(|x| !x.is_string()).map(|i| {
-                (
-                    format!("inputs[{i}]"),
-                    format!("inputs[{i}] must be a stage id (it is `{}`)", shown(&s[i])),
-                )
-            }),
-            _ => None,
-        };
-        let (k, m) = bad.unwrap_or_else(|| {
-            (
-                "inputs".into(),
-                format!("inputs must be a list or a mapping (it is `{}`)", shown(v)),
-            )
-        });
-        return Some((k, m, help.into()));
-    }
-    if inner.contains("untagged enum OneOrMany") {
-        let v = raw.get("params_file")?;
-        return Some((
-            "params_file".into(),
-            format!("params_file must be a path or a list of paths (it is `{}`)", shown(v)),
-            "write `params_file: stages/X.yaml` or `params_file: [SECTION=stages/X.yaml, stages/Y.yaml]`".into(),
-        ));
-    }
-    None
-}
-
 /// Every stage id an inputs spec names.
 fn input_refs(spec: &InputsSpec) -> Vec<&str> {
     match spec {
@@ -533,7 +456,7 @@ fn load_profile(
     let text = text.to_string();
     let file: PipelineFile = match serde_yaml::from_str::<Yaml>(&text) {
         Err(e) => {
-            let line = error_line(&e, &text);
+            let line = check::error_line(&e, &text);
             diags.push(
                 path,
                 line,
@@ -586,7 +509,7 @@ fn load_profile(
     // Stages that exist but were rejected: their dependants are not told "no such stage".
     let mut rejected: std::collections::HashSet<String> = std::collections::HashSet::new();
     let known = known_ids(&file.stages);
-    let swept_on = matrix_keys(&file.stages);
+    let swept_on = check::matrix_keys(&file.stages);
     let sets: Vec<Override> = sets.iter().map(|s| s.resolve(&known)).collect();
     let sets = sets.as_slice();
 
@@ -605,7 +528,7 @@ fn load_profile(
                 } else {
                     (e.path().to_string(), line)
                 };
-                let (key, message, help) = match untagged_problem(raw, &inner) {
+                let (key, message, help) = match check::untagged_problem(raw, &inner) {
                     Some((k, m, h)) => (k, m, h),
                     None => (
                         key,
@@ -733,7 +656,7 @@ fn load_profile(
                 Err(e) => {
                     diags.push(
                         &fpath,
-                        error_line(&e, &ftext),
+                        check::error_line(&e, &ftext),
                         "",
                         format!("YAML syntax error: {e}"),
                         "fix the YAML syntax",
