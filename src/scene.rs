@@ -5,7 +5,9 @@
 //! and reports live under DIR — so the outputs are the same tables, figures and VTK files.
 //! Problems are reported against the scene file's keys and lines; nothing is written
 //! until the scene is valid, and DIR must be new, empty, or an earlier simulate output
-//! (marked by a `.granrepro-simulate` file).
+//! (marked by a `.granrepro-simulate` file). An empty scene file is refused (exit 2, pointing
+//! at the example); a scene without `psd.n` gets enough grains for its column
+//! ([`default_psd_n`]), so a scene naming only its column (or only its grain sizes) runs.
 
 use std::path::Path;
 
@@ -111,9 +113,11 @@ fn report_scene_problems(scene: &Path, text: &str, d: &crate::pipeline::Diagnost
     eprintln!("{} error(s); nothing was run or written", seen.len());
 }
 
-/// Parse the scene file, naming the file, line and key of a problem.
-fn parse_scene(scene: &Path, text: &str) -> Result<SceneFile, String> {
+/// Parse the scene file, naming the file, line and key of a problem; an empty scene is
+/// refused.
+pub fn parse_scene(scene: &Path, text: &str) -> Result<SceneFile, String> {
     const KEYS: &str = "scene keys: psd, dem, stiffness_factor, column, run, vtk";
+    refuse_empty(scene, text)?;
     let v: serde_yaml::Value = serde_yaml::from_str(text).map_err(|e| {
         let line = e.location().map(|l| format!(":{}", l.line())).unwrap_or_default();
         format!("{}{line}: YAML syntax error: {e}\n  help: {KEYS}", scene.display())
@@ -140,8 +144,57 @@ fn parse_scene(scene: &Path, text: &str) -> Result<SceneFile, String> {
     })
 }
 
-/// The generated three-stage pipeline of a scene.
-fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
+/// The example scene a refusal points to.
+pub const EXAMPLE_SCENE: &str = "stages/scenes/example-column.yaml";
+
+/// An empty scene (nothing, whitespace, comments, `~` or `{}`) would run the defaults of
+/// every key, which is never what was meant: refuse it, pointing at the example.
+fn refuse_empty(scene: &Path, text: &str) -> Result<(), String> {
+    let empty = match serde_yaml::from_str::<serde_yaml::Value>(text) {
+        Ok(serde_yaml::Value::Null) => true,
+        Ok(serde_yaml::Value::Mapping(m)) => m.is_empty(),
+        _ => false, // anything else is reported by the parser with its line
+    };
+    if !empty {
+        return Ok(());
+    }
+    let name = scene
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    Err(format!(
+        "{}: {name} is empty: a scene states at least its grains or its column\n  help: start from {EXAMPLE_SCENE} (keys psd, dem, stiffness_factor, column, run, vtk)",
+        scene.display()
+    ))
+}
+
+/// The PSD size of a scene that does not give `psd.n`: enough grains for its ballistic
+/// column whatever the grading. The prep rains ⌈1.15 · 0.85 A / mean grain area⌉ grains
+/// and refuses a shorter PSD; the smallest grain bounds that mean, so
+/// n = ⌈1.15 · 0.85 A / (π r_min²)⌉ always suffices. (The `psd` kind's own default, 3000,
+/// is PSD-COL's count: the default 3.9e-3 m² column needs about 3800 of its grains, so a
+/// scene naming neither would fail at the prep.) Sampling is cheap and the prep rains only
+/// what it needs. None when the sizes are not valid (the stages report them) or the count
+/// is beyond the `psd` kind's limit.
+pub fn default_psd_n(sf: &SceneFile) -> Option<u64> {
+    let given = |v: &serde_yaml::Value, k: &str| v.get(k).map(|x| x.as_f64());
+    if sf.psd.get("n").is_some() {
+        return None;
+    }
+    let d_min_mm = given(&sf.psd, "d_min_mm").unwrap_or(Some(crate::stages::psd::PsdParams::default().d_min_mm))?;
+    let area =
+        given(&sf.column, "area_m2").unwrap_or(Some(crate::stages::dem_stages::PrepParams::default().area_m2))?;
+    let r_min = 0.5e-3 * d_min_mm;
+    let n = (1.15 * 0.85 * area / (std::f64::consts::PI * r_min * r_min)).ceil();
+    (n.is_finite() && r_min > 0.0 && area > 0.0 && n <= 1e7).then_some((n as u64).max(10))
+}
+
+/// The generated three-stage pipeline of a scene (`psd` → `column` → `collapse`).
+pub fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
+    let mut psd = nonnull(&sf.psd);
+    if let (Some(n), serde_yaml::Value::Mapping(m)) = (default_psd_n(sf), &mut psd) {
+        m.insert("n".into(), n.into());
+    }
     let mut prep = nonnull(&sf.column);
     let mut coll = serde_yaml::Mapping::new();
     if let serde_yaml::Value::Mapping(m) = &mut prep {
@@ -154,7 +207,7 @@ fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
     coll.insert("vtk".into(), sf.vtk.into());
     let mk = stage_entry;
     let stages = vec![
-        mk("psd", "psd", nonnull(&sf.psd), None),
+        mk("psd", "psd", psd, None),
         mk("column", "dem-column-prep", prep, Some(("psd", "psd"))),
         mk(
             "collapse",

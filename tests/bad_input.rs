@@ -821,3 +821,192 @@ fn shipped_pipeline_is_valid() {
         }
     }
 }
+
+// ---- Issue 29 -------------------------------------------------------------------------
+
+/// The repository's pipeline.yaml (edited by `edit`) and stages/ in a temp project.
+fn shipped_project(edit: impl Fn(&str) -> String) -> TempProject {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let t = TempProject::new(&edit(&std::fs::read_to_string(root.join("pipeline.yaml")).unwrap()));
+    fn copy(from: &std::path::Path, to: &std::path::Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for e in std::fs::read_dir(from).unwrap().flatten() {
+            if e.path().is_dir() {
+                copy(&e.path(), &to.join(e.file_name()));
+            } else {
+                std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+            }
+        }
+    }
+    copy(&root.join("stages"), &t.path().join("stages"));
+    t
+}
+
+/// Issue 29.1: a matrix key that is not a parameter of the kind (and pairs with no input)
+/// was dropped: `calib-point` swept on `a` passed `run --dry-run` and made stages
+/// `calib-point-abig` whose parameters held no `a`. Matrix keys are now read by the kind's
+/// schema as `--set` keys are, and values checked against the parameter's type before
+/// any member id is formed.
+#[test]
+fn matrix_key_that_is_not_a_parameter_is_refused_with_file_stage_and_key() {
+    let t = shipped_project(|p| {
+        let (old, new) = ("matrix: { mu_r: [0.1, 0.3] }", "matrix: { a: [0.4, big, 0.8, 1] }");
+        assert!(p.contains(old), "pipeline.yaml no longer sweeps calib-point on mu_r");
+        p.replacen(old, new, 1)
+    });
+    let (code, out, err) = t.cli(&["run", "--dry-run"]);
+    assert_eq!(code, 2, "{out}{err}");
+    for must in [
+        "pipeline.yaml:",
+        "stages[calib-point].matrix.a",
+        "`a` is not a parameter of dem-calibration-point",
+        "mu_r",
+    ] {
+        assert!(err.contains(must), "missing {must:?}: {err}");
+    }
+    assert!(
+        !out.contains("would run") && !err.contains("calib-point-abig"),
+        "{out}{err}"
+    );
+    // A value of the wrong type for a parameter: named with its key, no member id formed.
+    let t = TempProject::new("version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1, big] }\n");
+    let (code, _, err) = t.cli(&["run", "--dry-run"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("pipeline.yaml:5") && err.contains("stages[p].matrix.seed") && err.contains("`big`"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("p-seedbig"),
+        "a member id was formed from the bad value: {err}"
+    );
+    // A key of no parameter and no input sweep, on a kind without inputs.
+    let t = TempProject::new("version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { nn: [50] }\n");
+    let (code, _, err) = t.cli(&["run", "--dry-run"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("`nn` is not a parameter of psd") && err.contains("d_min_mm"),
+        "{err}"
+    );
+}
+
+/// Issue 29.2: an empty scene ran the defaults, which failed after running (exit 1: "the
+/// PSD input `psd` has 3000 grains; a 0.0039 m² column needs about 3824"). It is refused.
+#[test]
+fn empty_scene_is_refused_pointing_at_the_example() {
+    for text in ["", "  \n\n", "# a scene, some day\n", "{}\n", "~\n"] {
+        let t = TempProject::new(PSD);
+        t.write("scene.yaml", text);
+        let scene = t.path().join("scene.yaml");
+        let out = t.path().join("sim-out");
+        let (code, _, err) = t.cli(&["simulate", scene.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert_eq!(code, 2, "{text:?}: {err}");
+        assert!(
+            err.contains("scene.yaml is empty") && err.contains("stages/scenes/example-column.yaml"),
+            "{text:?}: {err}"
+        );
+        assert!(!out.exists(), "{text:?}: wrote {}", out.display());
+    }
+}
+
+/// Issue 29.2: the defaults of a scene that names only its column (or its grain sizes)
+/// must be consistent: the PSD holds the grains the column's prep rains (the `psd` kind's
+/// default 3000 was short of the default column's ~3800). Checked with the prep's own
+/// count on the real sample, without running the DEM.
+#[test]
+fn scene_without_psd_n_samples_enough_grains_for_its_column() {
+    for text in [
+        "column: { packing: ballistic }\n",
+        "vtk: true\n",
+        "column: { area_m2: 0.01, a: 2.0 }\n",
+        "psd: { d_min_mm: 0.5, d_max_mm: 1.0, beta_a: 4.0, beta_b: 4.0 }\n",
+    ] {
+        let scene = std::path::Path::new("scene.yaml");
+        let sf = granrepro::scene::parse_scene(scene, text).unwrap();
+        let doc = serde_yaml::to_string(&granrepro::scene::scene_pipeline(scene, &sf)).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = granrepro::pipeline::spec::load_text(&dir.path().join("pipeline.yaml"), &doc, dir.path(), "quick", &[])
+            .unwrap_or_else(|d| panic!("{text:?}: {d}"));
+        let psd: granrepro::stages::psd::PsdParams =
+            serde_json::from_value(p.get("psd").unwrap().params.clone()).unwrap();
+        let area = p.get("column").unwrap().params["area_m2"].as_f64().unwrap();
+        let d = psd.grading().sample(psd.n, psd.seed);
+        // The prep's count (src/stages/dem_stages.rs, `run_prep`): 1.15 × 0.85 A / mean area.
+        let mean_area = d.iter().map(|d| std::f64::consts::PI * 0.25 * d * d).sum::<f64>() / d.len() as f64;
+        let k = (1.15 * area * 0.85 / mean_area).ceil() as usize;
+        assert!(
+            d.len() >= k,
+            "{text:?}: the PSD has {} grains, the column rains {k}",
+            d.len()
+        );
+    }
+}
+
+/// Issue 29, found by `tests/loader_props.rs`: problems the loader placed in the wrong file
+/// or without the key. Each case: pipeline, stage file, what stderr must contain.
+#[test]
+fn loader_property_findings_name_the_file_and_key() {
+    const W: &str = "version: 1\nstages:\n  - id: w\n    kind: cd-work-precision\n    params_file: stages/w.yaml\n";
+    const P: &str = "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n";
+    let cases: &[(&str, &str, &str, &[&str])] = &[
+        // a problem inside a list of a stage file was blamed on pipeline.yaml
+        (
+            "list item",
+            W,
+            "variants:\n  - { dt: big }\n  - { dt: 1.0e-4, tolerance: 1.0e-4 }\n",
+            &["stages/w.yaml:", "variants[0].dt"],
+        ),
+        // a stage file's `profiles.quick` that is not a mapping replaced all params: "params.:"
+        (
+            "profile section",
+            P,
+            "n: 100\nprofiles:\n  quick: 2\n",
+            &["p.yaml:3", "profiles.quick"],
+        ),
+        // a second YAML document: no line
+        (
+            "two documents",
+            P,
+            "n: 100\n---\nn: 200\n",
+            &["p.yaml:2", "more than one document"],
+        ),
+        // `inputs: { psd: {} }`: "data did not match any variant of untagged enum InputsSpec"
+        (
+            "input role not an id",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: { psd: {} }\n",
+            "",
+            &[
+                "pipeline.yaml:7",
+                "stages[f].inputs.psd",
+                "input `psd` must name a stage id",
+            ],
+        ),
+        // a missing input did not say which role
+        (
+            "missing input role",
+            "version: 1\nstages:\n  - id: f\n    kind: psd-figure\n    inputs: { psd: \"\" }\n",
+            "",
+            &["stages[f].inputs", "(input `psd`)"],
+        ),
+        // a matrix over `dem.dt` replaced a `dem:` that is not a mapping, silently
+        (
+            "matrix under a scalar",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: c\n    kind: dem-column-prep\n    params: { dem: fast }\n    matrix: { dem.dt: [1.0e-7] }\n    inputs: { psd: p }\n",
+            "",
+            &["pipeline.yaml", "stages[c-dem.dt1e-7].params.dem", "fast"],
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, pipeline, file, must) in cases {
+        let t = TempProject::new(pipeline);
+        for f in ["stages/w.yaml", "stages/p.yaml"] {
+            t.write(f, file);
+        }
+        let (code, _, err) = t.cli(&["run", "--dry-run"]);
+        let missing: Vec<&&str> = must.iter().filter(|m| !err.contains(**m)).collect();
+        if code != 2 || !missing.is_empty() {
+            failures.push(format!("[{name}] exit {code}, missing {missing:?}:\n{err}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}

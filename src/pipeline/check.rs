@@ -1,13 +1,15 @@
 //! Checks of a pipeline that do not belong to one kind's schema: safe stage ids, numbers
-//! that are finite and not absurdly large, the input roles each kind reads, and one
+//! that are finite and not absurdly large, matrix keys and values (read by the kind's
+//! schema before any member id is formed), the input roles each kind reads, and one
 //! message per root cause.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use serde_json::Value as Json;
 use serde_yaml::Value as Yaml;
 
 use super::diag::{Diagnostic, Diagnostics};
+use crate::stages::Kind;
 
 /// Longest stage id allowed.
 pub const MAX_ID_LEN: usize = 100;
@@ -91,6 +93,155 @@ fn walk(v: &Yaml, key: String, out: &mut Vec<BadNumber>) {
         }
         _ => {}
     }
+}
+
+/// What a stage's matrix key is to its kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MatrixKey {
+    /// A parameter of the kind: each member sets it to its value.
+    Param,
+    /// Not a parameter, but an input is swept on the same key: the values only name the
+    /// members and pair them with that input's (`col-dem` over `a` reads `col-dem-prep-a<a>`).
+    Pairing,
+}
+
+/// Check a matrix key and its values the way a `--set` key is checked: each value is set
+/// on the stage's merged params `base` and the kind's schema reads the result. A key the
+/// schema does not know is accepted only when `pairs` (an input is swept on the same key);
+/// a value the parameter's type or range refuses is an error naming the value. Err:
+/// (message, help). Values with NaN/inf are left to [`bad_numbers`]. `inputs` (the stage
+/// ids the stage reads) are named when the key pairs with none of them.
+pub fn matrix_key(
+    kind: &Kind,
+    base: &Yaml,
+    key: &str,
+    vals: &[Yaml],
+    pairs: bool,
+    inputs: &[&str],
+) -> Result<MatrixKey, (String, String)> {
+    let under = |k: &str, p: &str| p == k || p.starts_with(&format!("{k}.")) || p.starts_with(&format!("{k}["));
+    for v in vals {
+        let mut m = base.clone();
+        super::spec::set_path(&mut m, key, v.clone());
+        if !bad_numbers(&m).is_empty() {
+            continue;
+        }
+        let Ok(json) = super::spec::to_json(&m) else { continue };
+        let Err(problems) = (kind.params)(&json) else { continue };
+        for pr in problems {
+            if pr.message.starts_with("unknown field") && under(&pr.key, key) {
+                if pairs {
+                    return Ok(MatrixKey::Pairing);
+                }
+                let list = pr
+                    .allowed
+                    .trim_start_matches("expected one of ")
+                    .trim_start_matches("expected ")
+                    .to_string();
+                let whose = match pr.key.rsplit_once('.') {
+                    Some((parent, _)) => format!("the keys under `{parent}` are"),
+                    None => "its parameters are".to_string(),
+                };
+                let nor = if inputs.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (nor is any of its inputs swept on `{key}`: {})", inputs.join(", "))
+                };
+                return Err((
+                    format!("`{}` is not a parameter of {}; {whose} {list}{nor}", pr.key, kind.name),
+                    "sweep one of the kind's parameters, or the key an input is swept on (the members then pair with that input's)".into(),
+                ));
+            }
+            if under(key, &pr.key) {
+                let shown = serde_yaml::to_string(v).unwrap_or_default().trim().to_string();
+                return Err((
+                    format!("matrix value `{shown}` of `{key}`: {}", pr.message),
+                    if pr.allowed.is_empty() {
+                        format!("see the `{}` kind's parameters in docs/pipeline.md", kind.name)
+                    } else {
+                        pr.allowed
+                    },
+                ));
+            }
+        }
+    }
+    Ok(MatrixKey::Param)
+}
+
+/// The matrix key of every raw stage entry that sweeps one (for telling a pairing key
+/// from a misspelt parameter).
+pub(super) fn matrix_keys(raw: &[Yaml]) -> HashMap<String, String> {
+    let mut out = HashMap::new();
+    for e in raw {
+        let (Some(id), Some(Yaml::Mapping(m))) = (e.get("id").and_then(|v| v.as_str()), e.get("matrix")) else {
+            continue;
+        };
+        if let (1, Some(k)) = (m.len(), m.keys().next().and_then(|k| k.as_str())) {
+            out.insert(id.to_string(), k.to_string());
+        }
+    }
+    out
+}
+
+/// The line of a YAML error: where the parser stopped, or for errors without a place
+/// (a second document) the second document's `---`, else line 1.
+pub(super) fn error_line(e: &serde_yaml::Error, text: &str) -> Option<usize> {
+    e.location().map(|l| l.line()).or_else(|| {
+        let docs: Vec<usize> = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.starts_with("---") || l.starts_with("..."))
+            .map(|(i, _)| i + 1)
+            .collect();
+        docs.iter().find(|&&l| l > 1).or(docs.first()).copied().or(Some(1))
+    })
+}
+
+/// serde's "data did not match any variant of untagged enum" for `inputs` or
+/// `params_file` names neither the role nor what is allowed: find the offending entry in
+/// the raw stage. (key, message, help).
+pub(super) fn untagged_problem(raw: &Yaml, inner: &str) -> Option<(String, String, String)> {
+    let ids = |v: &Yaml| v.is_string() || v.as_sequence().is_some_and(|s| s.iter().all(Yaml::is_string));
+    let shown = |v: &Yaml| serde_yaml::to_string(v).unwrap_or_default().trim().replace('\n', " ");
+    if inner.contains("untagged enum InputsSpec") {
+        let help = "write `inputs: { ROLE: STAGE }`, `inputs: { ROLE: [STAGE, ..] }` or `inputs: [STAGE, ..]`";
+        let v = raw.get("inputs")?;
+        let bad = match v {
+            Yaml::Mapping(m) => m.iter().find(|(_, x)| !ids(x)).map(|(k, x)| {
+                let k = k.as_str().map(str::to_string).unwrap_or_else(|| shown(k));
+                (
+                    format!("inputs.{k}"),
+                    format!(
+                        "input `{k}` must name a stage id or a list of them (it is `{}`)",
+                        shown(x)
+                    ),
+                )
+            }),
+            Yaml::Sequence(s) => s.iter().position(|x| !x.is_string()).map(|i| {
+                (
+                    format!("inputs[{i}]"),
+                    format!("inputs[{i}] must be a stage id (it is `{}`)", shown(&s[i])),
+                )
+            }),
+            _ => None,
+        };
+        let (k, m) = bad.unwrap_or_else(|| {
+            (
+                "inputs".into(),
+                format!("inputs must be a list or a mapping (it is `{}`)", shown(v)),
+            )
+        });
+        return Some((k, m, help.into()));
+    }
+    if inner.contains("untagged enum OneOrMany") {
+        let v = raw.get("params_file")?;
+        return Some((
+            "params_file".into(),
+            format!("params_file must be a path or a list of paths (it is `{}`)", shown(v)),
+            "write `params_file: stages/X.yaml` or `params_file: [SECTION=stages/X.yaml, stages/Y.yaml]`".into(),
+        ));
+    }
+    None
 }
 
 pub use super::context::Arity;

@@ -217,12 +217,17 @@ fn merge_at(base: &mut Yaml, over: &Yaml, depth: usize) {
     }
 }
 
-fn set_path(root: &mut Yaml, key: &str, value: Yaml) {
+/// Set the dotted `key` of `root` to `value`, creating mappings on the way (how `--set`
+/// and matrix values enter a stage's params). A value on the way that is neither a
+/// mapping nor empty is left as it is (the kind's schema then names it), never replaced.
+pub(super) fn set_path(root: &mut Yaml, key: &str, value: Yaml) {
     let mut cur = root;
     let parts: Vec<&str> = key.split('.').collect();
     for (i, p) in parts.iter().enumerate() {
-        if !matches!(cur, Yaml::Mapping(_)) {
-            *cur = Yaml::Mapping(Mapping::new());
+        match cur {
+            Yaml::Mapping(_) => {}
+            Yaml::Null => *cur = Yaml::Mapping(Mapping::new()),
+            _ => return,
         }
         let Yaml::Mapping(m) = cur else { unreachable!() };
         let k = Yaml::String(p.to_string());
@@ -237,15 +242,19 @@ fn set_path(root: &mut Yaml, key: &str, value: Yaml) {
     }
 }
 
+/// Does `root` hold the key path (`["panels", "0]", "series"]`: a segment `N]` is a
+/// sequence index, as in `panels[0].series`)?
 fn has_path(root: &Yaml, key: &[&str]) -> bool {
     let mut cur = root;
     for p in key {
-        match cur {
-            Yaml::Mapping(m) => match m.get(Yaml::String(p.to_string())) {
-                Some(v) => cur = v,
-                None => return false,
-            },
-            _ => return false,
+        let next = match (p.strip_suffix(']').and_then(|i| i.parse::<usize>().ok()), cur) {
+            (Some(i), Yaml::Sequence(s)) => s.get(i),
+            (None, Yaml::Mapping(m)) => m.get(Yaml::String(p.to_string())),
+            _ => None,
+        };
+        match next {
+            Some(v) => cur = v,
+            None => return false,
         }
     }
     true
@@ -286,14 +295,14 @@ type LayerRef = (PathBuf, Option<String>, Vec<String>, usize, Yaml);
 /// The file and line of the last layer that sets the dotted `key` (the stage entry
 /// when no layer does).
 fn attribute(layers: &[LayerRef], key: &str, path: &Path, line: Option<usize>) -> (PathBuf, Option<usize>) {
-    let parts: Vec<&str> = key
-        .split(['.', '['])
-        .filter(|s| !s.is_empty() && !s.ends_with(']'))
-        .collect();
+    // Indices stay in the path (a problem inside a list belongs to the layer holding the
+    // list); the line is located by the key names alone.
+    let parts: Vec<&str> = key.split(['.', '[']).filter(|s| !s.is_empty()).collect();
+    let names: Vec<&str> = parts.iter().copied().filter(|s| !s.ends_with(']')).collect();
     for (f, t, prefix, anchor, v) in layers.iter().rev() {
         if parts.is_empty() || has_path(v, &parts) {
             let l = t.as_deref().and_then(|t| {
-                let rel: Vec<&str> = parts.iter().skip(prefix.len()).cloned().collect();
+                let rel: Vec<&str> = names.iter().skip(prefix.len()).cloned().collect();
                 if rel.is_empty() {
                     Some(*anchor)
                 } else {
@@ -348,6 +357,21 @@ fn known_ids(raw: &[Yaml]) -> std::collections::HashSet<String> {
         }
     }
     out
+}
+
+/// Every stage id an inputs spec names.
+fn input_refs(spec: &InputsSpec) -> Vec<&str> {
+    match spec {
+        InputsSpec::List(v) => v.iter().map(String::as_str).collect(),
+        InputsSpec::Map(m) => m
+            .values()
+            .flat_map(|v| match v {
+                OneOrMany::One(s) => std::slice::from_ref(s).iter(),
+                OneOrMany::Many(v) => v.iter(),
+            })
+            .map(String::as_str)
+            .collect(),
+    }
 }
 
 /// Load and validate a pipeline for a profile, applying `--set` overrides. Every
@@ -432,7 +456,7 @@ fn load_profile(
     let text = text.to_string();
     let file: PipelineFile = match serde_yaml::from_str::<Yaml>(&text) {
         Err(e) => {
-            let line = e.location().map(|l| l.line());
+            let line = check::error_line(&e, &text);
             diags.push(
                 path,
                 line,
@@ -485,6 +509,7 @@ fn load_profile(
     // Stages that exist but were rejected: their dependants are not told "no such stage".
     let mut rejected: std::collections::HashSet<String> = std::collections::HashSet::new();
     let known = known_ids(&file.stages);
+    let swept_on = check::matrix_keys(&file.stages);
     let sets: Vec<Override> = sets.iter().map(|s| s.resolve(&known)).collect();
     let sets = sets.as_slice();
 
@@ -503,13 +528,18 @@ fn load_profile(
                 } else {
                     (e.path().to_string(), line)
                 };
-                diags.push(
-                    path,
-                    l,
-                    format!("stages[{label}].{key}"),
-                    inner,
-                    "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix",
-                );
+                let (key, message, help) = match check::untagged_problem(raw, &inner) {
+                    Some((k, m, h)) => (k, m, h),
+                    None => (
+                        key,
+                        inner,
+                        "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix".into(),
+                    ),
+                };
+                let l = line
+                    .and_then(|ln| locate(&text, &key.split('.').collect::<Vec<_>>(), ln))
+                    .or(l);
+                diags.push(path, l, format!("stages[{label}].{key}"), message, help);
                 rejected.extend(raw_id);
                 continue;
             }
@@ -626,7 +656,7 @@ fn load_profile(
                 Err(e) => {
                     diags.push(
                         &fpath,
-                        e.location().map(|l| l.line()),
+                        check::error_line(&e, &ftext),
                         "",
                         format!("YAML syntax error: {e}"),
                         "fix the YAML syntax",
@@ -693,13 +723,27 @@ fn load_profile(
                 }
                 if let Some(over) = pm.get(Yaml::String(profile.into())) {
                     let anchor = locate(&ftext, &["profiles", profile], 1).unwrap_or(1);
-                    layers.push(Layer {
-                        file: fpath.clone(),
-                        text: Some(ftext.clone()),
-                        prefix: prefix.clone(),
-                        anchor,
-                        value: wrap(over.clone()),
-                    });
+                    if !over.is_mapping() && !over.is_null() {
+                        diags.push(
+                            &fpath,
+                            Some(anchor),
+                            format!("profiles.{profile}"),
+                            "a profile's section must be a mapping of parameters",
+                            "write `key: value` lines under it",
+                        );
+                        file_ok = false;
+                        continue;
+                    }
+                    if over.is_mapping() {
+                        // (an empty `quick:` changes nothing)
+                        layers.push(Layer {
+                            file: fpath.clone(),
+                            text: Some(ftext.clone()),
+                            prefix: prefix.clone(),
+                            anchor,
+                            value: wrap(over.clone()),
+                        });
+                    }
                 }
             }
         }
@@ -729,7 +773,9 @@ fn load_profile(
                 value: Yaml::Mapping(p.clone()),
             });
         }
-        // Matrix expansion.
+        // Matrix expansion. A matrix key that is not a parameter of the kind only names
+        // the members and pairs them with an input swept on the same key.
+        let mut sets_param = false;
         let members: Vec<(String, Option<(String, String, Yaml)>)> = match &entry.matrix {
             None => vec![(entry.id.clone(), None)],
             Some(m) if m.len() == 1 => {
@@ -777,6 +823,25 @@ fn load_profile(
                     rejected.insert(entry.id.clone());
                     continue;
                 }
+                // The key is checked as a `--set` key is (the kind's schema reads it), and
+                // each value against the parameter's type, before any member id is formed.
+                let mut base = Yaml::Mapping(Mapping::new());
+                for layer in &layers {
+                    merge(&mut base, &layer.value);
+                }
+                let pairs = entry
+                    .inputs
+                    .as_ref()
+                    .is_some_and(|i| input_refs(i).iter().any(|r| swept_on.get(*r) == Some(k)));
+                let refs = entry.inputs.as_ref().map(input_refs).unwrap_or_default();
+                match check::matrix_key(&kind, &base, k, vals, pairs, &refs) {
+                    Ok(role) => sets_param = role == check::MatrixKey::Param,
+                    Err((message, help)) => {
+                        diags.push(path, l, format!("stages[{}].matrix.{k}", entry.id), message, help);
+                        rejected.insert(entry.id.clone());
+                        continue;
+                    }
+                }
                 base_matrix.insert(
                     entry.id.clone(),
                     (k.clone(), vals.iter().map(yaml_scalar_string).collect()),
@@ -819,7 +884,7 @@ fn load_profile(
                     )
                 })
                 .collect();
-            if let Some((k, _, v)) = &mval {
+            if let Some((k, _, v)) = mval.as_ref().filter(|_| sets_param) {
                 set_path(&mut merged, k, v.clone());
                 let mut m = Yaml::Mapping(Mapping::new());
                 set_path(&mut m, k, v.clone());
@@ -865,21 +930,7 @@ fn load_profile(
                     continue;
                 }
             };
-            // A matrix value is set as a parameter when the kind has that parameter;
-            // otherwise it only names and pairs the members.
-            let mut checked = (kind.params)(&json);
-            if let (Err(problems), Some((k, _, _))) = (&checked, &mval) {
-                if problems.len() == 1 && problems[0].key == *k && problems[0].message.starts_with("unknown field") {
-                    let mut m2 = merged.clone();
-                    if let Yaml::Mapping(m) = &mut m2 {
-                        m.remove(Yaml::String(k.clone()));
-                    }
-                    if let Ok(j2) = to_json(&m2) {
-                        checked = (kind.params)(&j2);
-                    }
-                }
-            }
-            let params = match checked {
+            let params = match (kind.params)(&json) {
                 Ok(p) => canonical(p),
                 Err(problems) => {
                     for pr in problems {
@@ -995,10 +1046,15 @@ fn load_profile(
                     continue;
                 }
                 let members: Vec<&Stage> = stages.iter().filter(|s| s.base_id == r).collect();
-                if rejected.contains(&r) {
+                // A rejected stage, or a member of a rejected matrix stage.
+                let of_rejected = rejected.contains(&r)
+                    || rejected
+                        .iter()
+                        .any(|b| r.len() > b.len() + 1 && r.starts_with(b.as_str()) && r.as_bytes()[b.len()] == b'-');
+                if of_rejected {
                     tainted = true;
                 }
-                if members.is_empty() && rejected.contains(&r) {
+                if members.is_empty() && of_rejected {
                     continue; // already reported where it is defined
                 }
                 if members.is_empty() {
@@ -1008,7 +1064,7 @@ fn load_profile(
                         path,
                         l,
                         format!("stages[{sid}].inputs"),
-                        format!("missing input: no stage `{r}`"),
+                        format!("missing input: no stage `{r}` (input `{role}`)"),
                         "name an existing stage id (or a matrix base id)",
                     );
                     continue;
