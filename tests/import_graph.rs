@@ -30,7 +30,7 @@ const KNOWN_LONG: &[(&str, usize)] = &[
     ("src/cli.rs", 1322),
     ("src/dem/passes.rs", 816),
     ("src/dem/world.rs", 1148),
-    ("src/pipeline/spec.rs", 1127),
+    ("src/pipeline/spec.rs", 1080),
     ("src/stages/column_analysis.rs", 918),
     ("src/stages/dem_stages.rs", 1322),
     ("src/stages/mpm_stages.rs", 1237),

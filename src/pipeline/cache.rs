@@ -89,7 +89,7 @@ impl KeyRecord {
             "kind": self.kind, "version": self.version, "params": self.params,
             "profile": self.profile, "inputs": inputs,
         });
-        let bytes = serde_json::to_vec(&super::spec::canonical(canon)).expect("json");
+        let bytes = serde_json::to_vec(&super::yaml::canonical(canon)).expect("json");
         blake3::hash(&bytes).to_hex()[..32].to_string()
     }
 }

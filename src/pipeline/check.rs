@@ -122,11 +122,11 @@ pub fn matrix_key(
     let under = |k: &str, p: &str| p == k || p.starts_with(&format!("{k}.")) || p.starts_with(&format!("{k}["));
     for v in vals {
         let mut m = base.clone();
-        super::spec::set_path(&mut m, key, v.clone());
+        super::yaml::set_path(&mut m, key, v.clone());
         if !bad_numbers(&m).is_empty() {
             continue;
         }
-        let Ok(json) = super::spec::to_json(&m) else { continue };
+        let Ok(json) = super::yaml::to_json(&m) else { continue };
         let Err(problems) = (kind.params)(&json) else { continue };
         for pr in problems {
             if pr.message.starts_with("unknown field") && under(&pr.key, key) {

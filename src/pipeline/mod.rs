@@ -15,6 +15,7 @@ pub mod publish;
 pub mod run;
 pub mod spec;
 pub mod timings;
+pub mod yaml;
 
 pub use context::{Claim, InputRef, Output, StageCtx};
 pub use diag::{Diagnostic, Diagnostics};
