@@ -21,6 +21,7 @@ pub mod report;
 pub mod sample;
 pub mod scene;
 pub mod scene_mpm;
+pub(crate) mod shared;
 pub mod stages;
 pub mod validate;
 pub mod vtk;
