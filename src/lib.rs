@@ -22,6 +22,7 @@ pub mod sample;
 pub mod scene;
 pub mod scene_cd;
 pub mod scene_mpm;
+pub(crate) mod shared;
 pub mod stages;
 pub mod validate;
 pub mod vtk;

@@ -455,6 +455,10 @@ mod tests {
         Law::<R, I, L>::eval_pairs(c, b, o, nb, dt)
     }
 
+    /// The batched law built for AVX2.
+    ///
+    /// # Safety
+    /// The CPU has AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn eval_avx2<const R: bool, const I: bool, const L: bool>(
@@ -467,6 +471,10 @@ mod tests {
         Law::<R, I, L>::eval_pairs(c, b, o, nb, dt)
     }
 
+    /// The batched law built for AVX-512.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     unsafe fn eval_avx512<const R: bool, const I: bool, const L: bool>(

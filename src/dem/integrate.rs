@@ -31,10 +31,10 @@
 
 use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
-use crate::dem::passes::Rd;
 use crate::dem::timers::Clock;
-use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, RollLists, World, chunked};
+use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, RollItem, RollLists, World, chunked};
 use crate::math::Real;
+use crate::shared::{SharedMut, SharedRef, checked_assert};
 
 impl World {
     /// First half kick and drift; returns whether the neighbour list must be rebuilt.
@@ -73,11 +73,19 @@ impl World {
         let h = 0.5 * dt;
         let s = &mut self.state;
         let n = s.len();
-        let (vx, vy, w) = (Ptr(s.vx.as_mut_ptr()), Ptr(s.vy.as_mut_ptr()), Ptr(s.w.as_mut_ptr()));
-        let (x, y, th) = (Ptr(s.x.as_mut_ptr()), Ptr(s.y.as_mut_ptr()), Ptr(s.theta.as_mut_ptr()));
+        let (vx, vy, w) = (
+            SharedMut::of(&mut s.vx),
+            SharedMut::of(&mut s.vy),
+            SharedMut::of(&mut s.w),
+        );
+        let (x, y, th) = (
+            SharedMut::of(&mut s.x),
+            SharedMut::of(&mut s.y),
+            SharedMut::of(&mut s.theta),
+        );
         let (inv_m, inv_i) = (&s.inv_m[..], &s.inv_i[..]);
         let (fx, fy, tq) = (&self.fx[..], &self.fy[..], &self.tq[..]);
-        debug_assert!(
+        checked_assert!(
             s.inv_m.len() == n && s.inv_i.len() == n && self.fx.len() == n && self.fy.len() == n && self.tq.len() == n
         );
         let lim = 0.25 * self.nl.skin * self.nl.skin;
@@ -120,7 +128,8 @@ impl World {
         let t0 = crate::dem::timers::Clock::now(self.timing);
         let h = 0.5 * self.params.dt;
         let s = &mut self.state;
-        // SAFETY: the lists are not written during the sweep
+        // SAFETY: the lists are not written during the sweep (made and used here, on this
+        // thread)
         let led = unsafe {
             dashpot_sweep::<L>(
                 &Dashpots::of(&mut self.roll),
@@ -169,30 +178,36 @@ pub(crate) struct SpinJob<const L: bool> {
     nwalls: usize,
     h: Real,
     on: bool,
-    w: Ptr<Real>,
+    w: SharedMut<Real>,
     n: usize,
-    inv_i: Rd<Real>,
-    inertia: Rd<Real>,
-    tq: Rd<Real>,
+    inv_i: SharedRef<Real>,
+    inertia: SharedRef<Real>,
+    tq: SharedRef<Real>,
 }
 
 impl<const L: bool> SpinJob<L> {
     pub(crate) fn new(w: &mut World) -> Self {
         let n = w.state.len();
-        debug_assert!(w.state.inv_i.len() == n && w.state.inertia.len() == n && w.tq.len() == n);
-        SpinJob {
-            d: Dashpots::of(&mut w.roll),
-            nwalls: w.walls.len(),
-            h: 0.5 * w.params.dt,
-            on: w.timing,
-            w: Ptr(w.state.w.as_mut_ptr()),
-            n,
-            inv_i: Rd::new(&w.state.inv_i),
-            inertia: Rd::new(&w.state.inertia),
-            tq: Rd::of(&mut w.tq),
+        checked_assert!(w.state.inv_i.len() == n && w.state.inertia.len() == n && w.tq.len() == n);
+        // SAFETY: read only by `run`, whole (`0..n`, the lengths asserted above), while
+        // nothing else touches the spins and torques (its caller's contract)
+        unsafe {
+            SpinJob {
+                d: Dashpots::of(&mut w.roll),
+                nwalls: w.walls.len(),
+                h: 0.5 * w.params.dt,
+                on: w.timing,
+                w: SharedMut::of(&mut w.state.w),
+                n,
+                inv_i: SharedRef::new(&w.state.inv_i),
+                inertia: SharedRef::new(&w.state.inertia),
+                tq: SharedRef::of(&mut w.tq),
+            }
         }
     }
 
+    /// The spin work: sweep, spin kick, sweep.
+    ///
     /// # Safety
     /// Nothing else touches the spins, torques or dashpot lists meanwhile.
     pub(crate) unsafe fn run(&self) -> SpinOut {
@@ -200,13 +215,14 @@ impl<const L: bool> SpinJob<L> {
         // SAFETY: caller's contract
         let (w, inv_i, inertia, tq) = unsafe {
             (
-                std::slice::from_raw_parts_mut(self.w.0, n),
+                self.w.slice_mut(0, n),
                 self.inv_i.slice(0, n),
                 self.inertia.slice(0, n),
                 self.tq.slice(0, n),
             )
         };
         let t0 = Clock::now(on);
+        // SAFETY: caller's contract (nothing writes the lists meanwhile)
         let l2 = unsafe { dashpot_sweep::<L>(&self.d, self.nwalls, h, w, inv_i, inertia) };
         let t1 = Clock::now(on);
         // the spin part of `kick_range` (no prescribed grain: nothing booked; its
@@ -215,6 +231,7 @@ impl<const L: bool> SpinJob<L> {
             w[a] += h * inv_i[a] * tq[a];
         }
         let t2 = Clock::now(on);
+        // SAFETY: as the first sweep
         let l1 = unsafe { dashpot_sweep::<L>(&self.d, self.nwalls, h, w, inv_i, inertia) };
         SpinOut {
             ledger: [l2, Ledger::default(), l1],
@@ -224,22 +241,26 @@ impl<const L: bool> SpinJob<L> {
     }
 }
 
-/// A raw view of the dashpot lists ([`RollLists`]) for a sweep.
+/// A shared view of the dashpot lists ([`RollLists`]) for a sweep.
 #[derive(Clone, Copy)]
 pub(crate) struct Dashpots {
-    items: Rd<RollItem>,
-    count: Rd<u32>,
-    witems: Rd<RollItem>,
-    wcount: Rd<u32>,
+    items: SharedRef<RollItem>,
+    count: SharedRef<u32>,
+    witems: SharedRef<RollItem>,
+    wcount: SharedRef<u32>,
 }
 
 impl Dashpots {
     pub(crate) fn of(rl: &mut RollLists) -> Self {
-        Dashpots {
-            items: Rd::of(&mut rl.items),
-            count: Rd::new(&rl.count),
-            witems: Rd::of(&mut rl.witems),
-            wcount: Rd::new(&rl.wcount),
+        // SAFETY: read only by `dashpot_sweep`, as whole slices (its caller promises that
+        // nothing writes the lists meanwhile)
+        unsafe {
+            Dashpots {
+                items: SharedRef::of(&mut rl.items),
+                count: SharedRef::new(&rl.count),
+                witems: SharedRef::of(&mut rl.witems),
+                wcount: SharedRef::new(&rl.wcount),
+            }
         }
     }
 }
@@ -313,20 +334,14 @@ pub(crate) unsafe fn kick_range<'a, const L: bool>(
     h: Real,
     (im, ii): (&[Real], &[Real]),
     (fx, fy, tq): (&[Real], &[Real], &[Real]),
-    (vx, vy, w): (Ptr<Real>, Ptr<Real>, Ptr<Real>),
+    (vx, vy, w): (SharedMut<Real>, SharedMut<Real>, SharedMut<Real>),
     part: &mut Partial,
 ) -> (&'a mut [Real], &'a mut [Real], &'a mut [Real]) {
     let n = hi - lo;
     let (im, ii) = (&im[..n], &ii[..n]);
     let (fx, fy, tq) = (&fx[..n], &fy[..n], &tq[..n]);
     // SAFETY: caller's contract
-    let (vx, vy, w) = unsafe {
-        (
-            std::slice::from_raw_parts_mut(vx.0.add(lo), n),
-            std::slice::from_raw_parts_mut(vy.0.add(lo), n),
-            std::slice::from_raw_parts_mut(w.0.add(lo), n),
-        )
-    };
+    let (vx, vy, w) = unsafe { (vx.slice_mut(lo, n), vy.slice_mut(lo, n), w.slice_mut(lo, n)) };
     if L {
         for a in 0..n {
             if im[a] == 0.0 {
@@ -354,26 +369,21 @@ pub(crate) unsafe fn drift_range<const THETA: bool>(
     lo: usize,
     dt: Real,
     (vx, vy, w): (&mut [Real], &mut [Real], &mut [Real]),
-    (x, y, th): (Ptr<Real>, Ptr<Real>, Ptr<Real>),
+    (x, y, th): (SharedMut<Real>, SharedMut<Real>, SharedMut<Real>),
     x0y0: Option<(&[Real], &[Real])>,
     lim: Real,
 ) -> bool {
     let n = vx.len();
     let vy = &vy[..n];
     // SAFETY: caller's contract
-    let (x, y) = unsafe {
-        (
-            std::slice::from_raw_parts_mut(x.0.add(lo), n),
-            std::slice::from_raw_parts_mut(y.0.add(lo), n),
-        )
-    };
+    let (x, y) = unsafe { (x.slice_mut(lo, n), y.slice_mut(lo, n)) };
     for a in 0..n {
         x[a] += dt * vx[a];
         y[a] += dt * vy[a];
     }
     if THETA {
         // SAFETY: caller's contract
-        let th = unsafe { std::slice::from_raw_parts_mut(th.0.add(lo), n) };
+        let th = unsafe { th.slice_mut(lo, n) };
         let w = &w[..n];
         for a in 0..n {
             th[a] += dt * w[a];

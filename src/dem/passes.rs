@@ -5,79 +5,23 @@
 //! - [`GrainPass`] — per grain chunk: force gather, grain–wall contacts, second half kick
 //!   (and, for a joined step, the next step's translational kick and drift).
 //!
-//! A job holds raw views of the world's arrays ([`Rd`], [`Ptr`]) rather than borrows, so
-//! that one phase can run several of them at once on a thread team — a grain chunk may
-//! drift positions that the pair pass of other chunks still reads, once those chunks are
-//! done (`World::staged_forces` orders them). A job is valid while the world's arrays are
-//! not reallocated: for one phase, made just before it.
+//! A job holds shared views of the world's arrays ([`SharedRef`], [`SharedMut`]; their
+//! contract is [`crate::shared`]'s) rather than borrows, so that one phase can run several
+//! of them at once on a thread team — a grain chunk may drift positions that the pair pass
+//! of other chunks still reads, once those chunks are done (`World::staged_forces` orders
+//! them). A job is valid while the world's arrays are not reallocated: for one phase, made
+//! just before it. Its read views index with the neighbour list's and the gather tables'
+//! indices, every entry < the number of grains or pairs they were built for (checked with
+//! the `checked` feature).
 
 use crate::dem::contact_law::{BATCH, Law, LawCoeffs, PairBatch, PairBatchOut, PairIn, RollDashpot};
 use crate::dem::integrate::{drift_range, kick_range};
 use crate::dem::state::ContactState;
 use crate::dem::timers::Clock;
 use crate::dem::walls::Wall;
-use crate::dem::world::{GRAIN_CHUNK, GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, Ptr, RollItem, World};
+use crate::dem::world::{GRAIN_CHUNK, GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, RollItem, World};
 use crate::math::{Real, Vec2};
-
-/// A read-only view of an array through a raw pointer, indexed without bounds checks (the
-/// indices come from the neighbour list and gather tables, every entry < the number of
-/// grains / pairs they were built for). Checked in debug builds.
-pub(crate) struct Rd<T> {
-    p: *const T,
-    n: usize,
-}
-impl<T> Clone for Rd<T> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-impl<T> Copy for Rd<T> {}
-// SAFETY: a view for reading; the jobs that hold one order their reads after the writes
-// of the same elements (see the module doc).
-unsafe impl<T> Send for Rd<T> {}
-unsafe impl<T> Sync for Rd<T> {}
-
-impl<T> Rd<T> {
-    /// Number of elements.
-    pub(crate) fn len(&self) -> usize {
-        self.n
-    }
-    /// A view of an array that nothing writes while the view is used.
-    pub(crate) fn new(v: &[T]) -> Self {
-        Rd {
-            p: v.as_ptr(),
-            n: v.len(),
-        }
-    }
-    /// A view of an array that a job of the same phase writes (other elements, or the same
-    /// ones before or after, in an order the phase enforces).
-    pub(crate) fn of(v: &mut Vec<T>) -> Self {
-        Rd {
-            p: v.as_mut_ptr(),
-            n: v.len(),
-        }
-    }
-    /// `len` elements from `lo`.
-    ///
-    /// # Safety
-    /// No write to them while the slice is used.
-    #[inline(always)]
-    pub(crate) unsafe fn slice(&self, lo: usize, len: usize) -> &[T] {
-        debug_assert!(lo + len <= self.n);
-        // SAFETY: caller's contract
-        unsafe { std::slice::from_raw_parts(self.p.add(lo), len) }
-    }
-}
-
-impl<T> std::ops::Index<usize> for Rd<T> {
-    type Output = T;
-    #[inline(always)]
-    fn index(&self, i: usize) -> &T {
-        debug_assert!(i < self.n);
-        // SAFETY: see the type's doc
-        unsafe { &*self.p.add(i) }
-    }
-}
+use crate::shared::{SharedMut, SharedRef, checked_assert};
 
 /// Three methods of a chunk kernel: `$name`, which runs the kernel's body `$body` (an
 /// `#[inline(always)]` method) built for the widest vector unit the CPU has, and the two
@@ -86,6 +30,7 @@ impl<T> std::ops::Index<usize> for Rd<T> {
 /// chunk, no spills around the law, the gathers and stores built for the same unit. IEEE
 /// add, multiply, divide and square root are exactly rounded at any width and nothing is
 /// fused, so every build gives the same bits (the law's batch test runs each width).
+/// `$name`'s `# Safety` section is the invocation's (its docs are passed in).
 macro_rules! built_for_the_widest_unit {
     ($(#[$doc:meta])* $name:ident, $avx512:ident, $avx2:ident => $body:ident($($a:ident: $t:ty),*) -> $r:ty) => {
         $(#[$doc])*
@@ -105,15 +50,30 @@ macro_rules! built_for_the_widest_unit {
             unsafe { self.$body($($a),*) }
         }
 
+        /// The kernel's body built for AVX-512 (with BMI1's `tzcnt`).
+        ///
+        /// # Safety
+        /// The CPU has AVX-512F and BMI1, and the body's contract holds (as the dispatching
+        /// method's).
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx512f,bmi1")]
         #[inline(never)]
-        unsafe fn $avx512(&self, $($a: $t),*) -> $r { unsafe { self.$body($($a),*) } }
+        unsafe fn $avx512(&self, $($a: $t),*) -> $r {
+            // SAFETY: caller's contract (the body's)
+            unsafe { self.$body($($a),*) }
+        }
 
+        /// The kernel's body built for AVX2.
+        ///
+        /// # Safety
+        /// The CPU has AVX2, and the body's contract holds (as the dispatching method's).
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2")]
         #[inline(never)]
-        unsafe fn $avx2(&self, $($a: $t),*) -> $r { unsafe { self.$body($($a),*) } }
+        unsafe fn $avx2(&self, $($a: $t),*) -> $r {
+            // SAFETY: caller's contract (the body's)
+            unsafe { self.$body($($a),*) }
+        }
     };
 }
 
@@ -143,31 +103,37 @@ fn new_max_overlap(part: &mut Partial, overlap: Real, dmin: Real, i: usize, j: u
 /// (`World::staged_forces`).
 #[derive(Clone, Copy)]
 pub(crate) struct PairFilter {
-    pi: Rd<u32>,
-    pj: Rd<u32>,
-    shift: Rd<Real>,
-    x: Rd<Real>,
-    y: Rd<Real>,
-    r: Rd<Real>,
+    pi: SharedRef<u32>,
+    pj: SharedRef<u32>,
+    shift: SharedRef<Real>,
+    x: SharedRef<Real>,
+    y: SharedRef<Real>,
+    r: SharedRef<Real>,
     lx: Real,
-    live: Ptr<u64>,
-    todo: Ptr<u16>,
+    live: SharedMut<u64>,
+    todo: SharedMut<u16>,
 }
 
 impl PairFilter {
     pub(crate) fn new(w: &mut World) -> Self {
         let nl = &w.nl;
-        debug_assert!(w.plive.len() == nl.len().div_ceil(64) && w.todo.len() >= nl.len());
-        PairFilter {
-            pi: Rd::new(&nl.pi),
-            pj: Rd::new(&nl.pj),
-            shift: Rd::new(&nl.shift),
-            x: Rd::of(&mut w.state.x),
-            y: Rd::of(&mut w.state.y),
-            r: Rd::new(&w.state.r),
-            lx: w.periodic_x.unwrap_or(0.0),
-            live: Ptr(w.plive.as_mut_ptr()),
-            todo: Ptr(w.todo.as_mut_ptr()),
+        checked_assert!(w.plive.len() == nl.len().div_ceil(64) && w.todo.len() >= nl.len());
+        // SAFETY: read only by `run`/`run_to`, at the pairs of a chunk of this list and at
+        // their grains (the list's indices are < the number of grains, `World::run_with`
+        // rebuilds a stale list); the positions are written meanwhile only by grain chunks
+        // whose pairs are done (`World::staged_forces`)
+        unsafe {
+            PairFilter {
+                pi: SharedRef::new(&nl.pi),
+                pj: SharedRef::new(&nl.pj),
+                shift: SharedRef::new(&nl.shift),
+                x: SharedRef::of(&mut w.state.x),
+                y: SharedRef::of(&mut w.state.y),
+                r: SharedRef::new(&w.state.r),
+                lx: w.periodic_x.unwrap_or(0.0),
+                live: SharedMut::of(&mut w.plive),
+                todo: SharedMut::of(&mut w.todo),
+            }
         }
     }
 
@@ -179,7 +145,7 @@ impl PairFilter {
     /// `live` entries no other thread touches meanwhile, nor the positions of its grains.
     pub(crate) unsafe fn run(&self, lo: usize, hi: usize) -> usize {
         // SAFETY: caller's contract (a chunk of the list: in bounds of `todo`)
-        unsafe { self.run_widest(lo, hi, self.todo.0.add(lo)) }
+        unsafe { self.run_widest(lo, hi, self.todo.slice_mut(lo, hi - lo).as_mut_ptr()) }
     }
 
     built_for_the_widest_unit! {
@@ -198,7 +164,7 @@ impl PairFilter {
     #[inline(always)]
     pub(crate) unsafe fn run_to(&self, lo: usize, hi: usize, dst: *mut u16) -> usize {
         let (pi, pj, shift, x, y, r, lx) = (self.pi, self.pj, self.shift, self.x, self.y, self.r, self.lx);
-        debug_assert!(lo % 64 == 0 && hi - lo <= PAIR_CHUNK);
+        checked_assert!(lo % 64 == 0 && hi - lo <= PAIR_CHUNK);
         let mut n_todo = 0usize;
         for base in (lo..hi).step_by(64) {
             let valid = if hi - base >= 64 {
@@ -226,6 +192,7 @@ impl PairFilter {
             while work != 0 {
                 let b = work.trailing_zeros() as usize;
                 work &= work - 1;
+                checked_assert!(n_todo < hi - lo);
                 // SAFETY: caller's contract; at most hi - lo offsets
                 unsafe { dst.add(n_todo).write((o + b) as u16) };
                 n_todo += 1;
@@ -242,21 +209,21 @@ pub(crate) struct PairPass<const R: bool, const IMP: bool, const L: bool> {
     coeffs: LawCoeffs,
     dt: Real,
     lx: Real,
-    pi: Rd<u32>,
-    pj: Rd<u32>,
-    shift: Rd<Real>,
-    cn: Rd<Real>,
-    rr: Rd<Real>,
-    x: Rd<Real>,
-    y: Rd<Real>,
-    vx: Rd<Real>,
-    vy: Rd<Real>,
-    w: Rd<Real>,
-    r: Rd<Real>,
-    hist: Ptr<ContactState>,
-    pout: Ptr<[Real; 4]>,
-    ritems: Ptr<RollItem>,
-    live: Ptr<u64>,
+    pi: SharedRef<u32>,
+    pj: SharedRef<u32>,
+    shift: SharedRef<Real>,
+    cn: SharedRef<Real>,
+    rr: SharedRef<Real>,
+    x: SharedRef<Real>,
+    y: SharedRef<Real>,
+    vx: SharedRef<Real>,
+    vy: SharedRef<Real>,
+    w: SharedRef<Real>,
+    r: SharedRef<Real>,
+    hist: SharedMut<ContactState>,
+    pout: SharedMut<[Real; 4]>,
+    ritems: SharedMut<RollItem>,
+    live: SharedMut<u64>,
     /// The filter of this list; its `todo` holds the pairs to evaluate.
     pub(crate) filter: PairFilter,
 }
@@ -270,30 +237,36 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         if w.roll.items.len() < np {
             w.roll.items.resize(np, RollItem::default());
         }
-        debug_assert_eq!(w.plive.len(), np.div_ceil(64));
-        debug_assert!(w.nl.pj.iter().all(|&j| (j as usize) < w.state.len()));
+        checked_assert!(w.plive.len() == np.div_ceil(64));
+        checked_assert!(w.nl.pj.iter().all(|&j| (j as usize) < w.state.len()));
         let filter = PairFilter::new(w);
         let (nl, s) = (&mut w.nl, &mut w.state);
-        PairPass {
-            coeffs: LawCoeffs::new(&w.params.grain, &w.params.rolling),
-            dt,
-            lx: w.periodic_x.unwrap_or(0.0),
-            pi: Rd::new(&nl.pi),
-            pj: Rd::new(&nl.pj),
-            shift: Rd::new(&nl.shift),
-            cn: Rd::new(&nl.cn),
-            rr: Rd::new(&nl.r_roll),
-            x: Rd::of(&mut s.x),
-            y: Rd::of(&mut s.y),
-            vx: Rd::of(&mut s.vx),
-            vy: Rd::of(&mut s.vy),
-            w: Rd::of(&mut s.w),
-            r: Rd::new(&s.r),
-            hist: Ptr(nl.hist.as_mut_ptr()),
-            pout: Ptr(w.pout.as_mut_ptr()),
-            ritems: Ptr(w.roll.items.as_mut_ptr()),
-            live: filter.live,
-            filter,
+        // SAFETY: read only by `chunk`, at the pairs of a chunk of this list and at their
+        // grains (as `PairFilter::new`); the positions, velocities and spins are written
+        // meanwhile only by the spin job and grain chunks that the phase orders before or
+        // after the pair chunks reading them (`World::staged_forces`)
+        unsafe {
+            PairPass {
+                coeffs: LawCoeffs::new(&w.params.grain, &w.params.rolling),
+                dt,
+                lx: w.periodic_x.unwrap_or(0.0),
+                pi: SharedRef::new(&nl.pi),
+                pj: SharedRef::new(&nl.pj),
+                shift: SharedRef::new(&nl.shift),
+                cn: SharedRef::new(&nl.cn),
+                rr: SharedRef::new(&nl.r_roll),
+                x: SharedRef::of(&mut s.x),
+                y: SharedRef::of(&mut s.y),
+                vx: SharedRef::of(&mut s.vx),
+                vy: SharedRef::of(&mut s.vy),
+                w: SharedRef::of(&mut s.w),
+                r: SharedRef::new(&s.r),
+                hist: SharedMut::of(&mut nl.hist),
+                pout: SharedMut::of(&mut w.pout),
+                ritems: SharedMut::of(&mut w.roll.items),
+                live: filter.live,
+                filter,
+            }
         }
     }
 
@@ -304,10 +277,15 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         ///
         /// # Safety
         /// `lo..hi` is one pair chunk, its slots touched by no other thread meanwhile; nothing
-        /// writes the positions, velocities or spins of its grains meanwhile.
+        /// writes the positions, velocities or spins of its grains meanwhile; `filtered` is
+        /// `None`, or `Some(k)` with `k` what the filter's `run` on this chunk returned.
         chunk, chunk_avx512, chunk_avx2 => chunk_body(lo: usize, hi: usize, filtered: Option<usize>) -> Partial
     }
 
+    /// The body of [`PairPass::chunk`].
+    ///
+    /// # Safety
+    /// As [`PairPass::chunk`].
     #[inline(always)]
     unsafe fn chunk_body(&self, lo: usize, hi: usize, filtered: Option<usize>) -> Partial {
         let mut part = Partial::default();
@@ -315,13 +293,16 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
         let (x, y, vx, vy, w, r) = (self.x, self.y, self.vx, self.vy, self.w, self.r);
         let (hist, pout, ritems, live, coeffs, dt) =
             (self.hist, self.pout, self.ritems, self.live, &self.coeffs, self.dt);
-        // Pass 1 (`PairFilter`): the pairs with work to do, in pair order.
-        // SAFETY: caller's contract; the offsets are the filter's, in bounds
-        // unfiltered, the chunk filters into a buffer on the stack (in L1 for the pass; not
-        // zeroed: the filter writes every entry it counts)
+        // Pass 1 (`PairFilter`): the pairs with work to do, in pair order; unfiltered, the
+        // chunk filters into a buffer on the stack (in L1 for the pass; not zeroed: the
+        // filter writes every entry it counts)
         let mut local = std::mem::MaybeUninit::<[u16; PAIR_CHUNK]>::uninit();
         let todo = match filtered {
-            Some(k) => unsafe { std::slice::from_raw_parts(self.filter.todo.0.add(lo), k) },
+            // SAFETY: caller's contract: the filter ran on this chunk and wrote `k` offsets
+            // to `todo[lo..]`, which no other thread touches
+            Some(k) => unsafe { self.filter.todo.slice(lo, k) },
+            // SAFETY: caller's contract (`PairFilter::run_to`'s); `local` holds PAIR_CHUNK
+            // ≥ hi − lo entries, of which the filter wrote the first `k`
             None => unsafe {
                 let p = local.as_mut_ptr() as *mut u16;
                 let k = self.filter.run_to(lo, hi, p);
@@ -362,6 +343,8 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
                 b.r_j[l] = r[j];
                 b.r_roll[l] = rr[k];
                 b.cn[l] = cn[k];
+                // SAFETY: `k` is a pair of this chunk (caller's contract): its history is this
+                // chunk's alone during the pass
                 let h = unsafe { hist.get(k) };
                 b.h[0][l] = h.tangential;
                 b.h[1][l] = h.rolling;
@@ -375,6 +358,8 @@ impl<const R: bool, const IMP: bool, const L: bool> PairPass<R, IMP, L> {
                 let k = lo + o as usize;
                 let (i, j) = (pi[k] as usize, pj[k] as usize);
                 let radsum = b.radsum[l];
+                // SAFETY: `k` is a pair of this chunk and `lo + n_roll` ≤ `k` (caller's
+                // contract): their history, force and dashpot slots are this chunk's alone
                 unsafe {
                     // separated → drop history (once)
                     if b.rsq[l] >= radsum * radsum {
@@ -462,34 +447,34 @@ pub(crate) struct GrainPass<const R: bool, const IMP: bool, const L: bool, const
     next: bool,
     on: bool,
     lim: Real,
-    walls: Rd<Wall>,
+    walls: SharedRef<Wall>,
     any_wall: bool,
     /// The near-wall lists (`NearWalls`): grains and per (wall, chunk) starts.
-    near: Rd<u32>,
-    near_start: Rd<u32>,
+    near: SharedRef<u32>,
+    near_start: SharedRef<u32>,
     near_chunks: usize,
-    istart: Rd<u32>,
-    jstart: Rd<u32>,
-    jlist: Rd<u32>,
-    pout: Rd<[Real; 4]>,
-    m: Rd<Real>,
-    r: Rd<Real>,
-    inv_m: Rd<Real>,
-    inv_i: Rd<Real>,
-    wcn: Rd<Real>,
-    x0: Option<(Rd<Real>, Rd<Real>)>,
-    x: Ptr<Real>,
-    y: Ptr<Real>,
-    th: Ptr<Real>,
-    vx: Ptr<Real>,
-    vy: Ptr<Real>,
-    w: Ptr<Real>,
-    fx: Ptr<Real>,
-    fy: Ptr<Real>,
-    tq: Ptr<Real>,
-    hist: Ptr<ContactState>,
-    live: Ptr<u8>,
-    witems: Ptr<RollItem>,
+    istart: SharedRef<u32>,
+    jstart: SharedRef<u32>,
+    jlist: SharedRef<u32>,
+    pout: SharedRef<[Real; 4]>,
+    m: SharedRef<Real>,
+    r: SharedRef<Real>,
+    inv_m: SharedRef<Real>,
+    inv_i: SharedRef<Real>,
+    wcn: SharedRef<Real>,
+    x0: Option<(SharedRef<Real>, SharedRef<Real>)>,
+    x: SharedMut<Real>,
+    y: SharedMut<Real>,
+    th: SharedMut<Real>,
+    vx: SharedMut<Real>,
+    vy: SharedMut<Real>,
+    w: SharedMut<Real>,
+    fx: SharedMut<Real>,
+    fy: SharedMut<Real>,
+    tq: SharedMut<Real>,
+    hist: SharedMut<ContactState>,
+    live: SharedMut<u8>,
+    witems: SharedMut<RollItem>,
 }
 
 impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<R, IMP, L, KICK> {
@@ -497,46 +482,53 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
     /// the next step's translational first half (needs `KICK` and no prescribed grain).
     pub(crate) fn new(w: &mut World, dt: Real, next: bool) -> Self {
         let n = w.state.len();
-        debug_assert!(!next || (KICK && w.state.inv_m.iter().all(|&v| v != 0.0)));
+        checked_assert!(!next || (KICK && w.state.inv_m.iter().all(|&v| v != 0.0)));
         w.ensure_near_walls();
         let s = &mut w.state;
         let nl = &w.nl;
-        GrainPass {
-            coeffs: LawCoeffs::new(&w.params.wall, &w.params.rolling),
-            dt,
-            step_dt: w.params.dt,
-            g: w.params.gravity,
-            n,
-            next,
-            on: w.timing,
-            lim: 0.25 * nl.skin * nl.skin,
-            walls: Rd::new(&w.walls),
-            any_wall: w.walls.iter().any(|w| w.active),
-            near: Rd::new(&w.near.grains),
-            near_start: Rd::new(&w.near.start),
-            near_chunks: w.near.chunks,
-            istart: Rd::new(&nl.istart),
-            jstart: Rd::new(&nl.jstart),
-            jlist: Rd::new(&nl.jlist),
-            pout: Rd::of(&mut w.pout),
-            m: Rd::new(&s.m),
-            r: Rd::new(&s.r),
-            inv_m: Rd::new(&s.inv_m),
-            inv_i: Rd::new(&s.inv_i),
-            wcn: Rd::new(&w.wall_cn),
-            x0: (nl.x0.len() == n).then(|| (Rd::new(&nl.x0), Rd::new(&nl.y0))),
-            x: Ptr(s.x.as_mut_ptr()),
-            y: Ptr(s.y.as_mut_ptr()),
-            th: Ptr(s.theta.as_mut_ptr()),
-            vx: Ptr(s.vx.as_mut_ptr()),
-            vy: Ptr(s.vy.as_mut_ptr()),
-            w: Ptr(s.w.as_mut_ptr()),
-            fx: Ptr(w.fx.as_mut_ptr()),
-            fy: Ptr(w.fy.as_mut_ptr()),
-            tq: Ptr(w.tq.as_mut_ptr()),
-            hist: Ptr(w.wall_hist.as_mut_ptr()),
-            live: Ptr(w.wlive.as_mut_ptr()),
-            witems: Ptr(w.roll.witems.as_mut_ptr()),
+        // SAFETY: read only by `chunk`, at the grains of a grain chunk (< n), their pairs'
+        // force slots (`istart`, `jlist`: < the number of pairs), the near-wall lists'
+        // entries (grains of the chunk) and starts (per wall and chunk); the arrays read
+        // are written meanwhile only by the chunk that reads them or by pair chunks done
+        // before it (`World::staged_forces`)
+        unsafe {
+            GrainPass {
+                coeffs: LawCoeffs::new(&w.params.wall, &w.params.rolling),
+                dt,
+                step_dt: w.params.dt,
+                g: w.params.gravity,
+                n,
+                next,
+                on: w.timing,
+                lim: 0.25 * nl.skin * nl.skin,
+                walls: SharedRef::new(&w.walls),
+                any_wall: w.walls.iter().any(|w| w.active),
+                near: SharedRef::new(&w.near.grains),
+                near_start: SharedRef::new(&w.near.start),
+                near_chunks: w.near.chunks,
+                istart: SharedRef::new(&nl.istart),
+                jstart: SharedRef::new(&nl.jstart),
+                jlist: SharedRef::new(&nl.jlist),
+                pout: SharedRef::of(&mut w.pout),
+                m: SharedRef::new(&s.m),
+                r: SharedRef::new(&s.r),
+                inv_m: SharedRef::new(&s.inv_m),
+                inv_i: SharedRef::new(&s.inv_i),
+                wcn: SharedRef::new(&w.wall_cn),
+                x0: (nl.x0.len() == n).then(|| (SharedRef::new(&nl.x0), SharedRef::new(&nl.y0))),
+                x: SharedMut::of(&mut s.x),
+                y: SharedMut::of(&mut s.y),
+                th: SharedMut::of(&mut s.theta),
+                vx: SharedMut::of(&mut s.vx),
+                vy: SharedMut::of(&mut s.vy),
+                w: SharedMut::of(&mut s.w),
+                fx: SharedMut::of(&mut w.fx),
+                fy: SharedMut::of(&mut w.fy),
+                tq: SharedMut::of(&mut w.tq),
+                hist: SharedMut::of(&mut w.wall_hist),
+                live: SharedMut::of(&mut w.wlive),
+                witems: SharedMut::of(&mut w.roll.witems),
+            }
         }
     }
 
@@ -549,6 +541,10 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
         chunk, chunk_avx512, chunk_avx2 => chunk_body(lo: usize, hi: usize) -> GrainChunk
     }
 
+    /// The body of [`GrainPass::chunk`].
+    ///
+    /// # Safety
+    /// As [`GrainPass::chunk`].
     #[inline(always)]
     unsafe fn chunk_body(&self, lo: usize, hi: usize) -> GrainChunk {
         let (n, dt, step_dt, on) = (self.n, self.dt, self.step_dt, self.on);
@@ -559,7 +555,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
         let (xp, yp, th, vx, vy, w) = (self.x, self.y, self.th, self.vx, self.vy, self.w);
         let (fx, fy, tq, hist, live, witems) = (self.fx, self.fy, self.tq, self.hist, self.live, self.witems);
         // SAFETY: not written during the phase
-        let walls = unsafe { self.walls.slice(0, self.walls.n) };
+        let walls = unsafe { self.walls.slice(0, self.walls.len()) };
         let coeffs = &self.coeffs;
         let t0 = Clock::now(on);
         if IMP && KICK {
@@ -567,10 +563,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
             // see `World::integrate_first_half`)
             // SAFETY: this chunk's grains only
             unsafe {
-                let (th, w) = (
-                    std::slice::from_raw_parts_mut(th.0.add(lo), hi - lo),
-                    std::slice::from_raw_parts(w.0.add(lo), hi - lo),
-                );
+                let (th, w) = (th.slice_mut(lo, hi - lo), w.slice(lo, hi - lo));
                 for a in 0..hi - lo {
                     th[a] += step_dt * w[a];
                 }
@@ -595,6 +588,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                 ay -= o[1];
                 at += o[3];
             }
+            // SAFETY: `a` is this chunk's grain
             unsafe {
                 fx.set(a, ax);
                 fy.set(a, ay);
@@ -606,7 +600,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
         // (`NearWalls`: the others have no contact and nothing to drop)
         let mut part = Partial::default();
         if self.any_wall {
-            debug_assert!(lo % GRAIN_CHUNK == 0 && self.near_start.len() == walls.len() * (self.near_chunks + 1));
+            checked_assert!(lo % GRAIN_CHUNK == 0 && self.near_start.len() == walls.len() * (self.near_chunks + 1));
             let c = lo / GRAIN_CHUNK;
             for (wi, wall) in walls.iter().enumerate() {
                 if !wall.active {
@@ -617,12 +611,14 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                 // SAFETY: not written during the phase
                 for &a in unsafe { self.near.slice(s, e - s) } {
                     let a = a as usize;
-                    debug_assert!((lo..hi).contains(&a));
+                    checked_assert!((lo..hi).contains(&a));
                     let hk = wi * n + a;
                     // SAFETY: this chunk's grain
                     let p = unsafe { Vec2::new(xp.get(a), yp.get(a)) };
                     let overlap = r[a] - wall.distance(p);
                     if overlap <= 0.0 {
+                        // SAFETY: `a` is this chunk's grain, so its contact with wall `wi`
+                        // (slot `hk`) is this chunk's alone
                         unsafe {
                             if live.get(hk) == 0 {
                                 continue;
@@ -645,6 +641,9 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                         part.max_overlap = frac;
                         part.max_i = a as u32;
                     }
+                    // SAFETY: `a` is this chunk's grain, `hk` its contact with wall `wi`, and
+                    // `wi * n + lo + n_roll[wi]` (n_roll[wi] < hi − lo) a dashpot slot of this
+                    // chunk's range for that wall: all this chunk's alone
                     unsafe {
                         let pin = PairIn {
                             n: wall.normal,
@@ -692,7 +691,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
         if KICK {
             // SAFETY: this chunk's grains, written above by this chunk only
             unsafe {
-                let f = |p: Ptr<Real>| std::slice::from_raw_parts(p.0.add(lo), hi - lo);
+                let f = |p: SharedMut<Real>| p.slice(lo, hi - lo);
                 let (im, ii) = (inv_m.slice(lo, hi - lo), inv_i.slice(lo, hi - lo));
                 let (vxs, vys, _) =
                     kick_range::<L>(lo, hi, h, (im, ii), (f(fx), f(fy), f(tq)), (vx, vy, w), &mut kpart);
@@ -709,7 +708,7 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
                         lo,
                         step_dt,
                         (vxs, vys, &mut []),
-                        (xp, yp, Ptr(std::ptr::null_mut())),
+                        (xp, yp, SharedMut::new(&mut [])),
                         x0y0,
                         self.lim,
                     );
@@ -812,5 +811,24 @@ mod tests {
             }
             assert!(touching > np / 10, "too few contacts: {touching} of {np}");
         }
+    }
+
+    /// With `checked`, a neighbour list whose pair names a grain past the end is stopped by
+    /// the pair kernel's first read of it (`SharedRef`'s bounds assertion), where the
+    /// unchecked build would read past the position arrays.
+    #[cfg(feature = "checked")]
+    #[test]
+    #[should_panic(expected = "SharedRef: index")]
+    fn checked_pair_pass_stops_a_corrupt_neighbour_index() {
+        let p = DemParams::default();
+        let s = hex_lattice(0.01, 0.01, 1.15e-3, p.density);
+        let mut w = World::new(p, s, box_walls(0.01), None).unwrap();
+        let (n, np) = (w.state.len(), w.nl.len());
+        assert!(np > 0 && np <= PAIR_CHUNK, "{np} pairs");
+        w.nl.pi[np - 1] = n as u32;
+        w.plive.fill(0);
+        let pass = PairPass::<true, true, true>::new(&mut w, 0.0);
+        // SAFETY: broken on purpose (one corrupt index, module doc); nothing else runs
+        unsafe { pass.chunk(0, np, None) };
     }
 }

@@ -35,6 +35,7 @@ use crate::dem::timers::Phase;
 use crate::dem::timers::{Clock, PhaseTimers};
 use crate::dem::walls::{NearWalls, Wall};
 use crate::math::{Real, Vec2};
+use crate::shared::SharedMut;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering::Release};
 use std::time::Instant;
@@ -59,28 +60,6 @@ pub const TEAM_REFRESH: u64 = 32768;
 pub const TEAM_REST: u64 = 256;
 /// Most walls a scene can have.
 pub const MAX_WALLS: usize = 8;
-
-#[derive(Clone, Copy)]
-pub(crate) struct Ptr<T>(pub(crate) *mut T);
-unsafe impl<T> Send for Ptr<T> {}
-unsafe impl<T> Sync for Ptr<T> {}
-impl<T> Ptr<T> {
-    /// Write slot `i` without reading or dropping what was there.
-    #[inline(always)]
-    pub(crate) unsafe fn write(&self, i: usize, v: T) {
-        unsafe { self.0.add(i).write(v) }
-    }
-}
-impl<T: Copy> Ptr<T> {
-    #[inline(always)]
-    pub(crate) unsafe fn get(self, i: usize) -> T {
-        unsafe { *self.0.add(i) }
-    }
-    #[inline(always)]
-    pub(crate) unsafe fn set(self, i: usize, v: T) {
-        unsafe { *self.0.add(i) = v }
-    }
-}
 
 /// Per-chunk partial results, summed in chunk order.
 #[derive(Debug, Clone, Copy, Default)]
@@ -186,10 +165,10 @@ pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl
 
 /// `out` emptied with room for `n` per-chunk results, written through the returned pointer
 /// by the chunks (slot `c` by chunk `c` only); once all are written, `out.set_len(n)`.
-pub(crate) fn slots<T>(out: &mut Vec<T>, n: usize) -> Ptr<T> {
+pub(crate) fn slots<T>(out: &mut Vec<T>, n: usize) -> SharedMut<T> {
     out.clear();
     out.reserve(n);
-    Ptr(out.as_mut_ptr())
+    SharedMut::spare(out)
 }
 
 /// Contact histories of a settled state (see [`World::saved_histories`]).
@@ -517,7 +496,7 @@ impl World {
 
     fn run_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
         // The hot loops index the grain arrays with the list's indices unchecked
-        // (`passes::Rd`):
+        // (`crate::shared`):
         // a state edited without `resize_scratch` (or resized without a rebuild) gets its
         // scratch and list brought up to date first. The library's own callers never
         // reach these branches (they resize and rebuild themselves), so no result moves.
@@ -772,7 +751,7 @@ impl World {
         );
         let (fdone, pdone, gdeps) = (&self.fdone.0[..], &self.pdone.0[..], &self.gdeps[..]);
         let mut spin_out = SpinOut::default();
-        let sp = Ptr(&mut spin_out as *mut SpinOut);
+        let sp = SharedMut::new(std::slice::from_mut(&mut spin_out));
         let s0 = |c: usize| {
             let t0 = Clock::now(on);
             // SAFETY: every chunk writes its own slot once; the spin job is chunk 0 only

@@ -43,7 +43,7 @@
 
 use super::boundary::{self, WallWork};
 use super::error::MpmError;
-use super::grid::{Grid, Node};
+use super::grid::Grid;
 use super::material::{self, Elastic, McSurface};
 use super::params::{MpmParams, Scheme, StepRule, Wall};
 use super::particles::Point;
@@ -52,6 +52,7 @@ use super::state::{Ledger, State};
 use super::stress_block;
 use super::transfer::{Geom, simd_available};
 use crate::math::{Mat2, Real, Vec2};
+use crate::shared::SharedMut;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
@@ -328,7 +329,9 @@ impl Solver {
             a.store(0, Ordering::Relaxed);
         }
         let len = self.grid.nodes.len();
-        let nodes = NodesPtr(self.grid.nodes.as_mut_ptr());
+        // the grid's nodes, shared by the P2G ranges (below: why their writes never overlap
+        // in time)
+        let nodes = SharedMut::of(&mut self.grid.nodes);
         let band = |b: usize| {
             let first = (b * BAND * ny).min(len);
             let last = ((b + 2) * BAND * ny).min(len);
@@ -337,7 +340,7 @@ impl Solver {
             // bands run one after another, and a boundary band s runs only after both of its
             // neighbours s − 1 and s + 1 are done (arrival count, Acquire/Release) while the
             // range that runs it goes on with bands ≤ s − 2 or ≥ s + 2.
-            let chunk = unsafe { std::slice::from_raw_parts_mut(nodes.get().add(first), last - first) };
+            let chunk = unsafe { nodes.slice_mut(first, last - first) };
             let band_runs = &runs[run_start[b] as usize..run_start[b + 1] as usize];
             let idx = band_runs
                 .iter()
@@ -648,20 +651,6 @@ fn key_runs(keys: &[u32], first: usize, out: &mut [Run]) -> u32 {
         i = e;
     }
     n as u32
-}
-
-/// The grid's nodes, shared by the P2G ranges (see `Solver::p2g` for why their writes
-/// never overlap in time).
-#[derive(Clone, Copy)]
-struct NodesPtr(*mut Node);
-// SAFETY: only dereferenced in `Solver::p2g`, where concurrent writes go to disjoint columns.
-unsafe impl Send for NodesPtr {}
-unsafe impl Sync for NodesPtr {}
-impl NodesPtr {
-    #[inline(always)]
-    fn get(self) -> *mut Node {
-        self.0
-    }
 }
 
 /// Points per chunk of the fused point pass (≈ 50 kB of points: stays in L1/L2). Smaller

@@ -156,6 +156,10 @@ fn run(b: &mut Lanes, k: &Consts) {
     run_lanes(b, k)
 }
 
+/// [`run_lanes`] built for AVX-512.
+///
+/// # Safety
+/// The CPU has AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline(never)]
@@ -163,6 +167,10 @@ unsafe fn run_avx512(b: &mut Lanes, k: &Consts) {
     run_lanes(b, k)
 }
 
+/// [`run_lanes`] built for AVX2.
+///
+/// # Safety
+/// The CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]

@@ -158,6 +158,9 @@ mod avx2 {
 
     /// Lanes: [p.x, p.y, f.x, f.y] += [mv.x w, mv.y w, vxx gx + vxy gy, (vxy gx + vyy gy) + w mg],
     /// m += w m; the products and sums of the scalar code, each in its order.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (the node accesses are bounds-checked here, once per stencil).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn scatter<const FULL: bool>(
         geo: &Geom,
@@ -225,6 +228,9 @@ mod avx2 {
 
     /// Lanes: [vg.x, vg.y, Δv.x, Δv.y] += [v.x, v.y, Δv.x, Δv.y] w and
     /// [L00, L01, L10, L11] += [v.x, v.x, v.y, v.y] [gx, gy, gx, gy].
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (the node accesses are bounds-checked here, once per stencil).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn gather<const VEL: bool, const GRAD: bool>(
         geo: &Geom,
