@@ -4,7 +4,7 @@
 
 use granrepro::cd::CdParams;
 use granrepro::cd::shear::{ShearCdParams, shear_test};
-use granrepro::dem::prep::SplitMix64;
+use granrepro::sample::rng::SplitMix64;
 
 #[test]
 fn small_cell_gives_pressure_inertial_number_and_rising_friction() {

@@ -1,8 +1,9 @@
 //! Contract: results are bit-identical for 1 and 2 rayon threads (forces per contact in
 //! parallel, gathered per grain in a fixed order, partial sums in fixed chunk order).
 
-use granrepro::dem::prep::{SplitMix64, box_walls, hex_lattice};
+use granrepro::dem::prep::{box_walls, hex_lattice};
 use granrepro::dem::{DemParams, State, World};
+use granrepro::sample::rng::SplitMix64;
 
 /// A hexagonal column of ≈ 4900 touching grains — above `TEAM_MIN_GRAINS`, so a 2-thread
 /// pool steps it with a thread team (pair and grain chunks shared out) — with random spins so that rolling and tangential

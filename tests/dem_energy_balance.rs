@@ -4,8 +4,9 @@
 //! the D07 identity W_f + W_c + elastic + E_rot ≈ E_0 − E_k − E_p follows.
 
 use granrepro::dem::column::{CollapseParams, collapse};
-use granrepro::dem::prep::{SplitMix64, hex_column};
+use granrepro::dem::prep::hex_column;
 use granrepro::dem::{DemParams, Wall, World};
+use granrepro::sample::rng::SplitMix64;
 
 #[test]
 fn column_collapse_energy_balance() {

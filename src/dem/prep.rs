@@ -16,7 +16,7 @@ use crate::dem::world::{SavedHistories, World};
 use crate::math::{PI, Real};
 use serde::{Deserialize, Serialize};
 
-pub use crate::sample::rng::SplitMix64;
+use crate::sample::rng::SplitMix64;
 
 /// Local inverse-CDF sampler of diameters uniform by area (volume) fraction on
 /// [d_min, d_max] (number pdf ∝ d⁻², docs/definitions.md SC-PSD): d = 1/(1/d_min − U(1/d_min −
