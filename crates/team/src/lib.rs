@@ -268,7 +268,7 @@ fn serial(stages: &[Stage<'_>]) {
 fn backoff(spins: &mut u32) {
     if *spins < 1 << 22 {
         *spins += 1;
-        sync::spin_loop();
+        sync::spin_loop(*spins);
     } else {
         sync::yield_now();
     }
@@ -326,6 +326,11 @@ impl Drop for Lead<'_> {
     }
 }
 
+/// Spins between two looks at the team's failure flag in [`wait_for`] (a line other
+/// threads write: not on every spin). Under loom every spin looks: each spin is a step
+/// that loom explores, and 63 idle ones would multiply its executions for nothing.
+const FAILED_EVERY: u32 = if cfg!(loom) { 1 } else { 64 };
+
 /// Wait until `flag` holds the stamp `id` (a chunk's output is visible: acquire) — or
 /// until a chunk of this thread's team has panicked: the phase is then abandoned, and
 /// its lead raises the panic when every claimed chunk has returned.
@@ -335,7 +340,7 @@ impl Drop for Lead<'_> {
 pub fn wait_for(flag: &AtomicU64, id: u64) {
     let mut spins = 0u32;
     while flag.load(Acquire) != id {
-        if spins % 64 == 0 {
+        if spins % FAILED_EVERY == 0 {
             let t = MEMBER.with(|m| m.get());
             // SAFETY: `MEMBER` is set only while its team is borrowed by `Team::help` or
             // `Team::lead` on this thread (cleared by their guards), so it is alive.

@@ -5,8 +5,9 @@
 //!
 //! Contract: in a normal build every item here is the standard library's own (re-exports,
 //! or an `#[inline(always)]` wrapper that adds nothing), so the facade costs nothing in
-//! the hot loops. Under loom, the spin hint yields to loom's scheduler, so a spin loop is
-//! explored as a finite number of steps; `UnsafeCell` accesses are checked against the
+//! the hot loops. Under loom, the spin hint yields to loom's scheduler and a wait's spins
+//! past a small budget end loom's branching, so a spin loop is explored as a finite number
+//! of steps; `UnsafeCell` accesses are checked against the
 //! memory model (a read not ordered after the last write is reported).
 
 #[cfg(not(loom))]
@@ -22,14 +23,37 @@ pub(crate) use loom::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize};
 // loom's atomics take the standard library's orderings.
 pub(crate) use std::sync::atomic::Ordering;
 
-/// Busy-wait hint: the CPU's pause instruction; under loom, a yield to its scheduler.
+/// One spin of a busy wait, the `spins`-th in a row of that wait: the CPU's pause hint;
+/// under loom a yield to its scheduler (so the waiting thread lets the others run), and
+/// past [`LOOM_SPIN_BUDGET`] spins of one wait the end of loom's branching in this
+/// execution.
+///
+/// Why the budget: loom does not count a switch away from a thread that yielded as a
+/// preemption, so two threads that wait at once (two helpers between phases) can hand the
+/// processor to each other for ever, and loom explores ever longer such ping-pongs ("Model
+/// exceeded maximum number of branches"). A spin that reads what it read before changes
+/// nothing, so an execution whose wait spins longer is the same, step for step, as one
+/// where it spun less — which loom explores. The execution still runs to its end (a wait
+/// that can never end is still reported, as too many branches).
 #[inline(always)]
-pub(crate) fn spin_loop() {
+pub(crate) fn spin_loop(spins: u32) {
     #[cfg(not(loom))]
-    std::hint::spin_loop();
+    {
+        let _ = spins;
+        std::hint::spin_loop();
+    }
     #[cfg(loom)]
-    loom::hint::spin_loop();
+    {
+        if spins > LOOM_SPIN_BUDGET {
+            loom::skip_branch();
+        }
+        loom::hint::spin_loop();
+    }
 }
+
+/// Spins of one wait that loom explores alternatives around (see [`spin_loop`]).
+#[cfg(loom)]
+const LOOM_SPIN_BUDGET: u32 = 1;
 
 /// Hand the core to another runnable thread.
 #[inline(always)]
