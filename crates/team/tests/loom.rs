@@ -189,7 +189,8 @@ fn panicking(threads: usize, n: usize, bad: usize) {
             wait_for(&flags[c], 2);
             out1.add(c, out0.get(c));
         };
-        for_stages(&[(n, &s0), (n, &s1)]);
+        let r = catch_unwind(AssertUnwindSafe(|| for_stages(&[(n, &s0), (n, &s1)])));
+        assert!(r.is_ok(), "the phase after a caught panic raised a panic of its own");
         assert_eq!(out1.all(), vec![1; n]);
     });
 }
