@@ -24,14 +24,19 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::Ordering::Release;
 
 /// Preemptions per execution loom explores: bugs found in practice need two or three
-/// (loom's docs). Three with one helper, two with two (whose interleavings are many more):
-/// each test then takes seconds to a minute or two. `LOOM_MAX_PREEMPTIONS` overrides.
-fn preemptions(threads: usize) -> usize {
-    let default = if threads <= 2 { 3 } else { 2 };
+/// (loom's docs). Three with one helper, two with two (whose interleavings are many more),
+/// two for the panicking two-stage phase: each test then takes seconds to a couple of
+/// minutes. `LOOM_MAX_PREEMPTIONS` overrides.
+fn preemptions(default: usize) -> usize {
     std::env::var("LOOM_MAX_PREEMPTIONS")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
+}
+
+/// The default bound for `threads` (see [`preemptions`]).
+fn bound(threads: usize) -> usize {
+    if threads <= 2 { 3 } else { 2 }
 }
 
 /// One output slot per chunk, each written by the chunk that owns it only: loom checks
@@ -62,12 +67,12 @@ impl Slots {
     }
 }
 
-/// Explores `lead` as the lead of a team of `threads` (the lead and `threads - 1` helpers
+/// Explores `lead`, up to `bound` preemptions, as the lead of a team of `threads` (the lead and `threads - 1` helpers
 /// on loom threads, joined at the end: a helper that never returns is a hang, reported by
 /// loom).
-fn explore(threads: usize, lead: impl Fn() + Send + Sync + 'static) {
+fn explore(threads: usize, bound: usize, lead: impl Fn() + Send + Sync + 'static) {
     let mut b = Builder::new();
-    b.preemption_bound = Some(preemptions(threads));
+    b.preemption_bound = Some(preemptions(bound));
     let lead = std::sync::Arc::new(lead);
     b.check(move || {
         let team = Arc::new(Team::new(threads));
@@ -86,7 +91,7 @@ fn explore(threads: usize, lead: impl Fn() + Send + Sync + 'static) {
 
 /// (a) `n` chunks, chunk c adds c + 1 to its slot; the lead reduces in chunk order.
 fn completion(threads: usize, n: usize) {
-    explore(threads, move || {
+    explore(threads, bound(threads), move || {
         let out = Slots::new(n);
         for_chunks(n, &|c| out.add(c, c as u64 + 1));
         let expect: Vec<u64> = (1..=n as u64).collect();
@@ -113,7 +118,7 @@ fn a_every_chunk_runs_once_3_threads() {
 /// (b) two stages of `n` chunks: stage 1's chunk c reads stage 0's chunk c's output once
 /// its flag holds the phase's stamp.
 fn waiting(threads: usize, n: usize) {
-    explore(threads, move || {
+    explore(threads, bound(threads), move || {
         let (out0, out1) = (Slots::new(n), Slots::new(n));
         let flags: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(0)).collect();
         let s0 = |c: usize| {
@@ -158,7 +163,7 @@ fn quiet_chunk_panics() {
 /// `bad` would wait for ever without the team's failure flag.
 fn panicking(threads: usize, n: usize, bad: usize) {
     quiet_chunk_panics();
-    explore(threads, move || {
+    explore(threads, 2, move || {
         let (out0, out1) = (Slots::new(n), Slots::new(n));
         let flags: Vec<AtomicU64> = (0..n).map(|_| AtomicU64::new(0)).collect();
         let s0 = |c: usize| {
@@ -201,16 +206,35 @@ fn c_a_panicking_chunk_panics_the_lead_2_threads() {
     panicking(2, 2, 1);
 }
 
+/// (c) with two helpers, in one stage (the two-stage case with two helpers takes loom more
+/// than 4 minutes even at one preemption): chunk `bad` of `n` panics.
+fn panicking_one_stage(threads: usize, n: usize, bad: usize) {
+    quiet_chunk_panics();
+    explore(threads, bound(threads), move || {
+        let out = Slots::new(n);
+        let f = |c: usize| {
+            if c == bad {
+                std::panic::panic_any(ChunkPanic);
+            }
+            out.add(c, 1);
+        };
+        let r = catch_unwind(AssertUnwindSafe(|| for_chunks(n, &f)));
+        assert!(r.expect_err("the lead raises the chunk's panic").is::<ChunkPanic>());
+        let expect: Vec<u64> = (0..n).map(|c| (c != bad) as u64).collect();
+        assert_eq!(out.all(), expect, "every other chunk once, the failed one not");
+    });
+}
+
 #[test]
 fn c_a_panicking_chunk_panics_the_lead_3_threads() {
-    panicking(3, 2, 1);
+    panicking_one_stage(3, 3, 2);
 }
 
 /// (d) two phases of `n` chunks in a row, with different jobs: a helper still working
 /// through the first must not claim (nor run the job of) the second under the first's
 /// claim, and every chunk of each runs once.
 fn two_phases(threads: usize, n: usize) {
-    explore(threads, move || {
+    explore(threads, bound(threads), move || {
         let (first, second) = (Slots::new(n), Slots::new(n));
         for_chunks(n, &|c| first.add(c, 1));
         for_chunks(n, &|c| second.add(c, 2));
