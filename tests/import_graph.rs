@@ -27,7 +27,6 @@ const MAX_LINES: usize = 800;
 
 /// Files over `MAX_LINES` today, with the count they may not exceed (only shrinks).
 const KNOWN_LONG: &[(&str, usize)] = &[
-    ("src/cli.rs", 1322),
     ("src/dem/world.rs", 1127),
     ("src/pipeline/spec.rs", 1080),
     ("src/stages/column_analysis.rs", 918),

@@ -1,0 +1,241 @@
+//! The pipeline commands beyond `run`: `plan` (with `--estimate`), `plan --timings`,
+//! `export snakemake` and `clean`.
+
+use std::path::Path;
+
+use super::args::ProfileArg;
+use crate::pipeline::load;
+use crate::pipeline::run::Project;
+
+/// `plan`: the stages in order with keys (text or JSON), or the paper budget.
+pub(super) fn plan_cmd(
+    pipeline: &Path,
+    proj: &Project,
+    stages: &[String],
+    profile: ProfileArg,
+    json: bool,
+    estimate: bool,
+) -> i32 {
+    let p = match load(pipeline, profile.name(), &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}");
+            return 2;
+        }
+    };
+    if estimate {
+        return match crate::pipeline::estimate::estimate(&p, proj, stages) {
+            Ok(e) => {
+                if json {
+                    println!("{}", serde_json::to_string_pretty(&e.to_json()).unwrap_or_default());
+                } else {
+                    print!("{}", e.to_text());
+                }
+                0
+            }
+            Err(m) => {
+                eprintln!("error: {m}");
+                2
+            }
+        };
+    }
+    match crate::pipeline::plan::plan(&p, proj, stages) {
+        Ok(st) => {
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&crate::pipeline::plan::to_json(&p, proj, &st)).unwrap_or_default()
+                );
+            } else {
+                print!("{}", crate::pipeline::plan::to_text(&st));
+            }
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}
+
+/// `plan --timings`: the run records of the plan's stages (see `pipeline::timings`).
+pub(super) fn timings_cmd(
+    pipeline: &Path,
+    proj: &Project,
+    stages: &[String],
+    profile: ProfileArg,
+    json: bool,
+    min_wall: f64,
+) -> i32 {
+    let p = match load(pipeline, profile.name(), &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}");
+            return 2;
+        }
+    };
+    if !(min_wall.is_finite() && min_wall >= 0.0) {
+        eprintln!("error: --min-wall {min_wall}: expected seconds ≥ 0");
+        return 2;
+    }
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    match crate::pipeline::timings::timings(&p, proj, stages) {
+        Ok(t) => {
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&t.to_json(cores)).unwrap_or_default()
+                );
+            } else {
+                print!("{}", t.to_text(cores, min_wall));
+            }
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            2
+        }
+    }
+}
+
+/// `export snakemake`: the Snakefile of the plan on stdout.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn export_snakemake(
+    pipeline: &Path,
+    proj: &Project,
+    cache: Option<&Path>,
+    stages: &[String],
+    profile: ProfileArg,
+    bin: Option<String>,
+    threads: usize,
+    mem_mb: u64,
+) -> i32 {
+    use crate::pipeline::export::{ExportOptions, measured_from_record, snakefile};
+    let p = match load(pipeline, profile.name(), &[]) {
+        Ok(p) => p,
+        Err(d) => {
+            eprintln!("{d}");
+            return 2;
+        }
+    };
+    let plan = match crate::pipeline::plan::plan(&p, proj, stages) {
+        Ok(st) => st,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return 2;
+        }
+    };
+    let abs = |q: &Path| {
+        std::fs::canonicalize(q)
+            .or_else(|_| std::path::absolute(q))
+            .unwrap_or_else(|_| q.to_path_buf())
+    };
+    let bin = match bin {
+        Some(b) => b,
+        None => match std::env::current_exe() {
+            Ok(b) => abs(&b).display().to_string(),
+            Err(_) => "granrepro".into(),
+        },
+    };
+    // Wall times: this profile's run records, else (for the paper profile) the budget's
+    // estimate scaled from the quick records.
+    let estimated = if profile == ProfileArg::Paper {
+        crate::pipeline::estimate::estimate(&p, proj, stages).ok()
+    } else {
+        None
+    };
+    let mut measured = std::collections::BTreeMap::new();
+    for s in &plan {
+        let m = measured_from_record(&proj.report_dir(&p.profile), &s.id)
+            .or_else(|| estimated.as_ref().and_then(|e| e.measured(&s.id)));
+        if let Some(m) = m {
+            measured.insert(s.id.clone(), m);
+        }
+    }
+    let o = ExportOptions {
+        profile: p.profile.clone(),
+        bin,
+        pipeline: abs(pipeline),
+        root: abs(&proj.root),
+        cache: cache.map(Path::to_path_buf),
+        threads,
+        mem_mb,
+        peak_mb: plan
+            .iter()
+            .filter_map(|s| {
+                Some((
+                    s.id.clone(),
+                    crate::pipeline::export::peak_from_markers(
+                        &proj.root.join(crate::pipeline::export::marker_dir(&p.profile)),
+                        &s.id,
+                    )?,
+                ))
+            })
+            .collect(),
+        default_runtime_min: 720,
+        measured,
+    };
+    print!("{}", snakefile(&plan, &o));
+    0
+}
+
+/// `clean`: only in the project of an existing pipeline file; only what granrepro made.
+pub(super) fn clean(pipeline: &Path, proj: &Project, reports: bool, profile: Option<&str>) -> i32 {
+    if !pipeline.is_file() {
+        eprintln!(
+            "error: {}: no such pipeline file; nothing removed\n  help: `clean` works in the project of an existing pipeline file: pass --pipeline PATH or run from its directory",
+            pipeline.display()
+        );
+        return 2;
+    }
+    let profiles: Vec<&str> = match profile {
+        Some(p) => vec![p],
+        None => crate::pipeline::spec::PROFILES.to_vec(),
+    };
+    let mut code = 0;
+    match crate::pipeline::clean::clean_state(proj, profile) {
+        Ok(msgs) => msgs.iter().for_each(|m| println!("{m}")),
+        Err(e) => {
+            eprintln!("error: {e}");
+            code = 1;
+        }
+    }
+    if reports {
+        for p in &profiles {
+            let dir = proj.report_dir(p);
+            match crate::pipeline::publish::clean_reports(&dir) {
+                Ok(r) if r.is_empty() => {}
+                Ok(r) => println!(
+                    "removed {} published file(s) of profile `{p}` in {}",
+                    r.len(),
+                    dir.display()
+                ),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    code = 1;
+                }
+            }
+            if let Ok(rd) = std::fs::read_dir(&dir) {
+                let left: Vec<String> = rd
+                    .flatten()
+                    .map(|e| e.file_name().to_string_lossy().to_string())
+                    .collect();
+                if !left.is_empty() {
+                    println!(
+                        "kept {} file(s) in {} that granrepro did not publish: {}",
+                        left.len(),
+                        dir.display(),
+                        left.join(", ")
+                    );
+                }
+            }
+        }
+        if profile.is_none()
+            && std::fs::read_dir(&proj.reports).is_ok_and(|mut r| r.next().is_none())
+            && std::fs::remove_dir(&proj.reports).is_ok()
+        {
+            println!("removed the empty {}", proj.reports.display());
+        }
+    }
+    code
+}
