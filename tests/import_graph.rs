@@ -17,17 +17,14 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Circles not yet broken: the files of each, sorted, joined by spaces.
-const KNOWN_CIRCLES: &[&str] = &[
-    // the step's phases and the world share chunk types both ways
-    "src/dem/integrate.rs src/dem/passes.rs src/dem/world.rs",
-];
+const KNOWN_CIRCLES: &[&str] = &[];
 
 /// Largest source file allowed, in lines (issue 23: "no file over ~800 lines").
 const MAX_LINES: usize = 800;
 
 /// Files over `MAX_LINES` today, with the count they may not exceed (only shrinks).
 const KNOWN_LONG: &[(&str, usize)] = &[
-    ("src/dem/world.rs", 1127),
+    ("src/dem/world.rs", 907),
     ("src/pipeline/spec.rs", 1080),
     ("src/stages/column_analysis.rs", 918),
     ("src/stages/dem_stages.rs", 1322),

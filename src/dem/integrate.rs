@@ -31,8 +31,9 @@
 
 use crate::dem::contact_law::RollDashpot;
 use crate::dem::energy::Ledger;
+use crate::dem::scratch::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, RollItem, RollLists, chunked};
 use crate::dem::timers::Clock;
-use crate::dem::world::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, Partial, RollItem, RollLists, World, chunked};
+use crate::dem::world::World;
 use crate::math::Real;
 use crate::shared::{SharedMut, SharedRef, checked_assert};
 

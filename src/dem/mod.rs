@@ -26,6 +26,7 @@ pub(crate) mod passes;
 pub mod pile;
 pub mod preflight;
 pub mod prep;
+pub mod scratch;
 pub mod shear;
 pub mod state;
 pub mod team;

@@ -16,10 +16,11 @@
 
 use crate::dem::contact_law::{BATCH, Law, LawCoeffs, PairBatch, PairBatchOut, PairIn, RollDashpot};
 use crate::dem::integrate::{drift_range, kick_range};
+use crate::dem::scratch::{GRAIN_CHUNK, GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, RollItem};
 use crate::dem::state::ContactState;
 use crate::dem::timers::Clock;
 use crate::dem::walls::Wall;
-use crate::dem::world::{GRAIN_CHUNK, GrainChunk, MAX_WALLS, PAIR_CHUNK, Partial, RollItem, World};
+use crate::dem::world::World;
 use crate::math::{Real, Vec2};
 use crate::shared::{SharedMut, SharedRef, checked_assert};
 

@@ -21,7 +21,12 @@
 //! chunk by chunk in chunk order. Nothing depends on the thread count, so results are
 //! bit-identical for any number of threads.
 
-use crate::dem::contact_law::{Law, LawCoeffs, RollDashpot};
+mod data;
+
+pub use crate::dem::scratch::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, PAR_MIN_ITEMS};
+pub use data::{SavedHistories, StepInfo, World};
+
+use crate::dem::contact_law::{Law, LawCoeffs};
 use crate::dem::energy::{Balance, Energies, Ledger};
 use crate::dem::error::DemError;
 use crate::dem::integrate::{SpinJob, SpinOut};
@@ -29,6 +34,7 @@ use crate::dem::neighbors::NeighborList;
 use crate::dem::params::{DemParams, RollingDamping, normal_damping};
 use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
 use crate::dem::preflight::{Preflight, SizeClasses, preflight};
+use crate::dem::scratch::{Flags, Partial, RollItem, RollLists, chunked, slots};
 use crate::dem::state::{ContactState, State};
 use crate::dem::team::wait_for;
 use crate::dem::timers::Phase;
@@ -36,16 +42,9 @@ use crate::dem::timers::{Clock, PhaseTimers};
 use crate::dem::walls::{NearWalls, Wall};
 use crate::math::{Real, Vec2};
 use crate::shared::SharedMut;
-use serde::{Deserialize, Serialize};
-use std::sync::atomic::{AtomicU64, Ordering::Release};
+use std::sync::atomic::Ordering::Release;
 use std::time::Instant;
 
-/// Pairs per parallel work unit (fixed: the reduction order must not depend on threads).
-pub const PAIR_CHUNK: usize = 512;
-// a pair chunk's live bits are whole words (`World::plive`)
-const _: () = assert!(PAIR_CHUNK % 64 == 0 && PAIR_CHUNK <= 1 << 16);
-/// Grains per parallel work unit.
-pub const GRAIN_CHUNK: usize = 256;
 /// [`World::run`] steps a world with a thread team while the team is clearly faster than
 /// the world alone: it times [`TEAM_PROBE`] steps alone (the reference, taken again after
 /// [`TEAM_REFRESH`] steps), then the team in blocks of [`TEAM_BLOCK`] steps; a team
@@ -58,225 +57,6 @@ pub const TEAM_BLOCK: u64 = 1024;
 pub const TEAM_REFRESH: u64 = 32768;
 /// See [`TEAM_PROBE`].
 pub const TEAM_REST: u64 = 256;
-/// Most walls a scene can have.
-pub const MAX_WALLS: usize = 8;
-
-/// Per-chunk partial results, summed in chunk order.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct Partial {
-    pub ledger: Ledger,
-    pub max_overlap: Real,
-    pub max_i: u32,
-    pub max_j: u32,
-    pub wall_force: [Vec2; MAX_WALLS],
-    pub moved: bool,
-    /// Rolling dashpots this chunk listed (pair pass), per wall (wall pass).
-    pub n_roll: [u32; MAX_WALLS],
-    /// CPU seconds of the chunk (pair pass in `World::staged_forces`, with timers on).
-    pub secs: f64,
-}
-
-/// Done flags of a phase's chunks: a chunk stores the phase's stamp into its flag when its
-/// output is written (release), and a chunk that reads it waits for the stamp (acquire).
-/// Stamps grow phase by phase, so the flags are never reset.
-#[derive(Debug, Default)]
-pub(crate) struct Flags(pub(crate) Vec<AtomicU64>);
-impl Clone for Flags {
-    /// Fresh flags (a copied world's phases start over: stamps of 0 are never waited for).
-    fn clone(&self) -> Self {
-        Flags::default()
-    }
-}
-impl Flags {
-    pub(crate) fn ensure(&mut self, n: usize) {
-        if self.0.len() < n {
-            self.0.resize_with(n, || AtomicU64::new(0));
-        }
-    }
-}
-
-/// One implicit rolling dashpot for the integrator's sweep: grains `i`, `j` (`j =
-/// u32::MAX`: a wall) and the dashpot.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct RollItem {
-    pub i: u32,
-    pub j: u32,
-    pub d: RollDashpot,
-}
-
-/// The dashpots of the last force evaluation, compacted in sweep order: chunk `c` of the
-/// pair pass wrote its dashpots to `items[c * PAIR_CHUNK..][..count[c]]` in pair order;
-/// the grain chunk `c` of wall `wi` to `witems[wi * n + c * GRAIN_CHUNK..][..wcount[wi * nc + c]]`.
-/// The sweep reads them in that order — pairs by (i, j), then walls by (wall, grain), as
-/// before — without scanning the separated pairs and empty wall slots.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct RollLists {
-    pub items: Vec<RollItem>,
-    pub count: Vec<u32>,
-    pub witems: Vec<RollItem>,
-    pub wcount: Vec<u32>,
-}
-
-impl Partial {
-    pub(crate) fn merge(&mut self, o: &Partial) {
-        self.ledger += o.ledger;
-        if o.max_overlap > self.max_overlap {
-            self.max_overlap = o.max_overlap;
-            self.max_i = o.max_i;
-            self.max_j = o.max_j;
-        }
-        for w in 0..MAX_WALLS {
-            self.wall_force[w] += o.wall_force[w];
-        }
-        self.moved |= o.moved;
-    }
-}
-
-/// What one chunk of the fused grain pass returns: the wall pass's partial, the kick's
-/// partial (merged apart, in chunk order, exactly as the separate passes did) and the CPU
-/// seconds of its three parts (gather, walls, kick), by which the pass's wall time is
-/// apportioned to the phase timers.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct GrainChunk {
-    pub walls: Partial,
-    pub kick: Partial,
-    pub secs: [f64; 3],
-}
-
-/// Below this many grains a world steps on its calling thread (the team's threshold,
-/// [`crate::dem::team::TEAM_MIN_GRAINS`]; the name the stage drivers refer to).
-pub const PAR_MIN_ITEMS: usize = crate::dem::team::TEAM_MIN_GRAINS;
-
-/// `f(lo, hi)` for each chunk of `chunk` items of `0..n`, results in chunk order in `out`:
-/// shared out on the world's thread team inside a [`World::run`] that has one (see
-/// [`crate::dem::team`]), else in order on this thread. The chunking — and so every
-/// sum's order — is the same either way, so results do not depend on the thread count.
-pub(crate) fn chunked<T: Send>(n: usize, chunk: usize, out: &mut Vec<T>, f: impl Fn(usize, usize) -> T + Sync + Send) {
-    let nc = n.div_ceil(chunk);
-    let dst = slots(out, nc);
-    crate::dem::team::for_chunks(nc, &|c| {
-        let v = f(c * chunk, ((c + 1) * chunk).min(n));
-        // SAFETY: each chunk index is run exactly once, into reserved capacity
-        unsafe { dst.write(c, v) };
-    });
-    // SAFETY: every slot 0..nc was written above (for_chunks returns when all are done)
-    unsafe { out.set_len(nc) };
-}
-
-/// `out` emptied with room for `n` per-chunk results, written through the returned pointer
-/// by the chunks (slot `c` by chunk `c` only); once all are written, `out.set_len(n)`.
-pub(crate) fn slots<T>(out: &mut Vec<T>, n: usize) -> SharedMut<T> {
-    out.clear();
-    out.reserve(n);
-    SharedMut::spare(out)
-}
-
-/// Contact histories of a settled state (see [`World::saved_histories`]).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct SavedHistories {
-    /// Grain pairs (i < j) and their history.
-    pub pairs: Vec<(u32, u32, ContactState)>,
-    /// Grain–wall contacts: (wall index, grain, history).
-    pub walls: Vec<(u32, u32, ContactState)>,
-}
-
-/// Diagnostics of the last step.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct StepInfo {
-    /// Largest overlap / smaller diameter of the pair (or the grain at a wall).
-    pub max_overlap_fraction: Real,
-    /// Grains of that contact (j = u32::MAX for a wall).
-    pub max_pair: (u32, u32),
-    /// Force exerted by the grains on each wall [N/m] (index as in `walls`).
-    pub wall_force: [Vec2; MAX_WALLS],
-}
-
-/// A DEM scene with its solver scratch.
-#[derive(Debug, Clone)]
-pub struct World {
-    /// Parameters (read each step; change between `run` calls only).
-    pub params: DemParams,
-    /// Grain state.
-    pub state: State,
-    /// Walls (at most [`MAX_WALLS`]).
-    pub walls: Vec<Wall>,
-    /// Period along x [m], if the cell is periodic in x.
-    pub periodic_x: Option<Real>,
-    /// Simulated time [s].
-    pub t: Real,
-    /// Steps done.
-    pub steps: u64,
-    /// Cumulative dissipation (filled when `params.ledger`).
-    pub ledger: Ledger,
-    /// Total energy when the ledger was (re)started [J/m].
-    pub e0: Real,
-    /// Whether the watchdog's energy-rise check applies (off for driven scenes without ledger).
-    pub energy_check: bool,
-    /// Phase timers.
-    pub timers: PhaseTimers,
-    /// Optional physics paths taken (leave-out counters).
-    pub paths: crate::dem::timers::PathCounts,
-    /// Last step's diagnostics.
-    pub info: StepInfo,
-    /// Below this many grains the world steps on its calling thread even in a
-    /// multi-thread pool (default [`crate::dem::team::TEAM_MIN_GRAINS`]; results are the
-    /// same either way — `bench dem-crossover` sets it to measure the crossover).
-    pub team_min_grains: usize,
-    /// Whether `run` times steps alone against steps with the team and keeps the faster
-    /// (default true; `bench dem-crossover` turns it off to time the team itself).
-    pub team_probe: bool,
-    /// Keep the phase timers (`timers`; default false: no clock calls in the steps).
-    pub timing: bool,
-    /// Seconds per step alone, and the step when timed (see [`TEAM_PROBE`]).
-    pub(crate) solo_ref: Option<(f64, u64)>,
-    /// A team that lost rests until this step.
-    pub(crate) team_until: u64,
-    /// Tries lost by the team in a row.
-    pub(crate) team_lost: u32,
-    pub(crate) nl: NeighborList,
-    pub(crate) wall_hist: Vec<ContactState>,
-    pub(crate) wall_cn: Vec<Real>,
-    pub(crate) fx: Vec<Real>,
-    pub(crate) fy: Vec<Real>,
-    pub(crate) tq: Vec<Real>,
-    /// Per-pair output [f_x, f_y, torque_i, torque_j] (one cache line per two pairs).
-    pub(crate) pout: Vec<[Real; 4]>,
-    /// Implicit rolling dashpots of the last force evaluation, in sweep order.
-    pub(crate) roll: RollLists,
-    /// Per listed pair, one bit (pair k: bit k % 64 of word k / 64): 0 when its last
-    /// evaluation found it separated, so that its history and output are zero and stay
-    /// so while it stays separated (the pair pass then does nothing for it). Set for
-    /// every pair by a rebuild or a history restore ([`World::all_pairs_live`]). A live
-    /// pair is evaluated whether or not it touches: the filter checks only the others.
-    pub(crate) plive: Vec<u64>,
-    /// The same per grain–wall slot (`wall * n + grain`), one byte each.
-    pub(crate) wlive: Vec<u8>,
-    /// Per wall, the grains near it (the grain–wall pass visits only those).
-    pub(crate) near: NearWalls,
-    pub(crate) partials: Vec<Partial>,
-    /// Per-chunk results of the fused grain pass (gather + walls + second half kick).
-    pub(crate) gpartials: Vec<GrainChunk>,
-    /// The pair filter's output (pass 1 of the pair pass, [`crate::dem::passes::PairFilter`]): pair chunk `c`'s
-    /// pairs with work, as offsets from the chunk's first pair, at `todo[c * PAIR_CHUNK..]`.
-    pub(crate) todo: Vec<u16>,
-    /// Results of the first stage of `World::staged_forces`: slot `1 + c` pair chunk `c`'s
-    /// count of pairs with work and the filter's seconds (slot 0: the spin job's).
-    pub(crate) filtered: Vec<(u32, f64)>,
-    /// Per grain chunk, the pair chunks `first..last` holding a pair of its grains (made
-    /// with the list): what its gather waits for in `World::staged_forces`.
-    pub(crate) gdeps: Vec<(u32, u32)>,
-    /// Number of `staged_forces` phases so far: the stamp of their done flags.
-    pub(crate) phase_id: u64,
-    /// Done stamps of the first stage's chunks (spin job, filters) and of the pair chunks.
-    pub(crate) fdone: Flags,
-    pub(crate) pdone: Flags,
-    pub(crate) forces_valid: bool,
-    /// Inactive walls whose contact histories have been released.
-    pub(crate) wall_cleared: [bool; MAX_WALLS],
-    /// Walls as they were at the end of the last `run` (edits in between invalidate forces).
-    pub(crate) walls_seen: Vec<Wall>,
-}
-
 impl World {
     /// A world from a state, walls and parameters. Validates the parameters.
     pub fn new(params: DemParams, state: State, walls: Vec<Wall>, periodic_x: Option<Real>) -> Result<Self, DemError> {
