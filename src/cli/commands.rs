@@ -16,12 +16,8 @@ pub(super) fn plan_cmd(
     json: bool,
     estimate: bool,
 ) -> i32 {
-    let p = match load(pipeline, profile.name(), &[]) {
-        Ok(p) => p,
-        Err(d) => {
-            eprintln!("{d}");
-            return 2;
-        }
+    let Some(p) = load_or_report(pipeline, profile) else {
+        return 2;
     };
     if estimate {
         return match crate::pipeline::estimate::estimate(&p, proj, stages) {
@@ -67,12 +63,8 @@ pub(super) fn timings_cmd(
     json: bool,
     min_wall: f64,
 ) -> i32 {
-    let p = match load(pipeline, profile.name(), &[]) {
-        Ok(p) => p,
-        Err(d) => {
-            eprintln!("{d}");
-            return 2;
-        }
+    let Some(p) = load_or_report(pipeline, profile) else {
+        return 2;
     };
     if !(min_wall.is_finite() && min_wall >= 0.0) {
         eprintln!("error: --min-wall {min_wall}: expected seconds ≥ 0");
@@ -111,12 +103,8 @@ pub(super) fn export_snakemake(
     mem_mb: u64,
 ) -> i32 {
     use crate::pipeline::export::{ExportOptions, measured_from_record, snakefile};
-    let p = match load(pipeline, profile.name(), &[]) {
-        Ok(p) => p,
-        Err(d) => {
-            eprintln!("{d}");
-            return 2;
-        }
+    let Some(p) = load_or_report(pipeline, profile) else {
+        return 2;
     };
     let plan = match crate::pipeline::plan::plan(&p, proj, stages) {
         Ok(st) => st,
@@ -238,4 +226,9 @@ pub(super) fn clean(pipeline: &Path, proj: &Project, reports: bool, profile: Opt
         }
     }
     code
+}
+
+/// The pipeline of `profile`, or its diagnostics printed (the caller exits 2).
+fn load_or_report(pipeline: &Path, profile: ProfileArg) -> Option<crate::pipeline::Pipeline> {
+    load(pipeline, profile.name(), &[]).map_err(|d| eprintln!("{d}")).ok()
 }

@@ -522,7 +522,8 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                 let (id, r) = rx.recv().expect("worker channel");
                 running.remove(&id);
                 let key = keys[&id].1.clone();
-                match r {
+                // The stage's failure message, if it failed (recorded once, below).
+                let failure = match r {
                     Ok((wall_s, changed)) => {
                         if !opts.quiet {
                             say(&mp, format!("  ran     {id}  ({wall_s:.2} s)"));
@@ -541,10 +542,11 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                         }
                         done.insert(id.clone(), true);
                         summary.stages.push(StageReport {
-                            id,
-                            key,
+                            id: id.clone(),
+                            key: key.clone(),
                             outcome: Outcome::Ran { wall_s },
                         });
+                        None
                     }
                     Err(StageError::InputGone { input, why }) => {
                         // Another process removed an input entry between planning and
@@ -562,32 +564,27 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
                             if done.remove(&input).is_some() {
                                 summary.stages.retain(|s| s.id != input);
                             }
+                            None
+                        } else if in_set.contains(&input) {
+                            Some(format!(
+                                "{msg}, {n} times; another process keeps removing it (a `granrepro clean` on a filesystem without working flock, or by hand)"
+                            ))
                         } else {
-                            let msg = if in_set.contains(&input) {
-                                format!(
-                                    "{msg}, {n} times; another process keeps removing it (a `granrepro clean` on a filesystem without working flock, or by hand)"
-                                )
-                            } else {
-                                format!("{msg}; run it again (`granrepro run --stage {input}`) and then this stage")
-                            };
-                            say(&mp, format!("  FAILED  {id}: {msg}"));
-                            done.insert(id.clone(), false);
-                            summary.stages.push(StageReport {
-                                id,
-                                key,
-                                outcome: Outcome::Failed(msg),
-                            });
+                            Some(format!(
+                                "{msg}; run it again (`granrepro run --stage {input}`) and then this stage"
+                            ))
                         }
                     }
-                    Err(StageError::Failed(msg)) => {
-                        say(&mp, format!("  FAILED  {id}: {msg}"));
-                        done.insert(id.clone(), false);
-                        summary.stages.push(StageReport {
-                            id,
-                            key,
-                            outcome: Outcome::Failed(msg),
-                        });
-                    }
+                    Err(StageError::Failed(msg)) => Some(msg),
+                };
+                if let Some(msg) = failure {
+                    say(&mp, format!("  FAILED  {id}: {msg}"));
+                    done.insert(id.clone(), false);
+                    summary.stages.push(StageReport {
+                        id,
+                        key,
+                        outcome: Outcome::Failed(msg),
+                    });
                 }
             }
         }
