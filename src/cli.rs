@@ -154,6 +154,13 @@ pub enum Cmd {
         #[arg(long = "set")]
         sets: Vec<String>,
     },
+    /// The claims ledger (stages/ledger.yaml) judged on the profile's published results:
+    /// one line per claim of the chapter, its value, ours (mean ± spread), the verdict.
+    Claims {
+        /// Profile.
+        #[arg(long, value_enum, default_value = "quick")]
+        profile: ProfileArg,
+    },
     /// Run one ad-hoc scene outside the pipeline: a DEM column (psd + column + run sections)
     /// or, with `engine: cd`, a CD shear cell or pile; with `engine: mpm`, an MPM column.
     Simulate {
@@ -400,17 +407,11 @@ pub fn run_cli(cli: Cli) -> i32 {
                                         println!("{}: {}", s.id, line.join(", "));
                                     }
                                 }
-                                for c in v["claims"].as_array().into_iter().flatten() {
+                                for c in v["measurements"].as_array().into_iter().flatten() {
                                     println!(
-                                        "  claim {}: paper {} ours {} ({})",
+                                        "  measurement {}: {} (judged in the ledger: `granrepro claims`)",
                                         c["id"].as_str().unwrap_or(""),
-                                        c["paper"],
-                                        c["ours"],
-                                        if c["pass"].as_bool() == Some(true) {
-                                            "pass"
-                                        } else {
-                                            "FAIL"
-                                        }
+                                        c["ours"]
                                     );
                                 }
                             }
@@ -532,6 +533,13 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
+        Cmd::Claims { profile } => match load(&cli.pipeline, profile.name(), &[]) {
+            Ok(p) => crate::cli::commands::print_claims(&p, &proj.reports.join(profile.name())),
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
         Cmd::Simulate { scene, out, quiet } if crate::scene_cd::is_cd_scene(&scene) => {
             crate::scene_cd::simulate_cd(&scene, &out, quiet)
         }

@@ -11,6 +11,7 @@
 pub mod analysis;
 pub mod bench_leave_out;
 pub mod cd;
+pub mod claims;
 pub mod cli;
 pub mod dem;
 pub mod fit;

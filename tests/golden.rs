@@ -84,7 +84,7 @@ fn golden_numbers_quick_profile() {
         let stale: Vec<String> = std::fs::read_dir(root.join("golden"))
             .unwrap()
             .filter_map(|e| e.ok()?.file_name().to_str()?.strip_suffix(".snap").map(str::to_string))
-            .filter(|id| !all.contains(id))
+            .filter(|id| !all.contains(id) && id != "claims-ledger")
             .collect();
         assert!(
             stale.is_empty(),
@@ -134,7 +134,10 @@ fn golden_numbers_quick_profile() {
             .iter()
             .map(|(k, x)| (k.clone(), round(x.as_f64().unwrap_or(f64::NAN), digits(id))))
             .collect();
-        let rows = |key: &str| -> Vec<BTreeMap<String, String>> {
+        // Measurements (what a stage measures for the ledger): id and our value. Checks
+        // keep their verdict. The chapter's values and the verdicts of the claims are
+        // pinned once, in the ledger's snapshot below.
+        let rows = |key: &str, verdict: bool| -> Vec<BTreeMap<String, String>> {
             v[key]
                 .as_array()
                 .unwrap()
@@ -142,23 +145,51 @@ fn golden_numbers_quick_profile() {
                 .map(|c| {
                     let mut m = BTreeMap::new();
                     m.insert("id".into(), c["id"].as_str().unwrap().to_string());
-                    m.insert(
-                        "paper".into(),
-                        round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)),
-                    );
                     m.insert("ours".into(), round(c["ours"].as_f64().unwrap_or(f64::NAN), digits(id)));
-                    m.insert("pass".into(), c["pass"].to_string());
-                    if c["calibrated"].as_bool() == Some(true) {
-                        m.insert("calibrated".into(), "true".into());
+                    if verdict {
+                        m.insert(
+                            "paper".into(),
+                            round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)),
+                        );
+                        m.insert("pass".into(), c["pass"].to_string());
                     }
                     m
                 })
                 .collect()
         };
-        let (claims, checks) = (rows("claims"), rows("checks"));
-        let snap = serde_json::json!({ "stage": id, "profile": "quick", "scalars": scalars, "claims": claims, "checks": checks });
+        let (measurements, checks) = (rows("measurements", false), rows("checks", true));
+        let snap = serde_json::json!({ "stage": id, "profile": "quick", "scalars": scalars, "measurements": measurements, "checks": checks });
         insta::with_settings!({ snapshot_path => root.join("golden"), prepend_module_to_snapshot => false, omit_expression => true }, {
             insta::assert_yaml_snapshot!(*id, snap);
+        });
+    }
+    // The ledger judged on this run: each row's measurement, its mean and spread, and
+    // its verdict, pinned once (the stages' snapshots hold only the measurements).
+    if only.is_none() {
+        let judged = granrepro::claims::evaluate_dir(&p, &tmp.path().join("reports/quick")).expect("stages/ledger.yaml");
+        let unmeasured: Vec<&str> = judged
+            .iter()
+            .filter(|j| j.verdict == granrepro::claims::judge::Verdict::NoMeasurement)
+            .map(|j| j.id.as_str())
+            .collect();
+        assert!(unmeasured.is_empty(), "ledger rows whose stage publishes no such measurement: {unmeasured:?}");
+        let rows: Vec<serde_json::Value> = judged
+            .iter()
+            .map(|j| {
+                serde_json::json!({
+                    "id": j.id,
+                    "kind": j.kind,
+                    "paper": round(j.paper, 4),
+                    "ours": round(j.mean, 4),
+                    "n": j.values.len(),
+                    "sd": j.sd.map(|s| round(s, 2)),
+                    "verdict": j.verdict.name(),
+                    "calibrated": !j.calibrated.is_empty(),
+                })
+            })
+            .collect();
+        insta::with_settings!({ snapshot_path => root.join("golden"), prepend_module_to_snapshot => false, omit_expression => true }, {
+            insta::assert_yaml_snapshot!("claims-ledger", rows);
         });
     }
 }

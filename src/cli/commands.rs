@@ -232,3 +232,34 @@ pub(super) fn clean(pipeline: &Path, proj: &Project, reports: bool, profile: Opt
 fn load_or_report(pipeline: &Path, profile: ProfileArg) -> Option<crate::pipeline::Pipeline> {
     load(pipeline, profile.name(), &[]).map_err(|d| eprintln!("{d}")).ok()
 }
+
+/// `granrepro claims`: the ledger judged on `dir`'s published results, one line per row.
+pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path) -> i32 {
+    use crate::report::ledger::n4;
+    let Some(judged) = crate::claims::evaluate_dir(p, dir) else {
+        eprintln!("error: {}: no claims ledger\n  help: the ledger is stages/ledger.yaml beside pipeline.yaml", p.root.display());
+        return 2;
+    };
+    for j in &judged {
+        let ours = match (j.values.is_empty(), j.sd, j.se) {
+            (true, ..) => "—".to_string(),
+            (false, Some(sd), _) => format!("{} ± {} (sd, n = {})", n4(j.mean), n4(sd), j.values.len()),
+            (false, None, Some(se)) if se > 0.0 => format!("{} ± {} (s.e.)", n4(j.mean), n4(se)),
+            (false, ..) => n4(j.mean),
+        };
+        println!(
+            "{:<34} {:<12} paper {:<10} ours {:<28} {}{}",
+            j.id,
+            j.kind,
+            n4(j.paper),
+            ours,
+            j.verdict.name(),
+            if j.calibrated.is_empty() { "" } else { " (calibrated)" }
+        );
+    }
+    let c = crate::claims::judge::counts(&judged);
+    for ((k, v), n) in c {
+        println!("  {} {}: {n}", k.name(), v.name());
+    }
+    0
+}

@@ -538,7 +538,10 @@ fn read_manifest(dir: &Path) -> Result<Manifest, String> {
     serde_json::from_slice(&bytes).map_err(|e| format!("manifest.json unreadable: {e}"))
 }
 
-/// The stable JSON shape of a stage's scalars and claims.
+/// The stable JSON shape of a stage's scalars, measurements and checks. A stage's
+/// `claims` are published as measurements (id, what is measured, our value): the chapter's
+/// value, the tolerance and the verdict belong to the ledger (`crate::claims`), which
+/// judges each claim once. Checks (inputs, identities) keep their own verdict.
 pub fn result_json(stage: &str, profile: &str, out: &Output) -> Value {
     let scalars: serde_json::Map<String, Value> = out
         .scalars
@@ -556,9 +559,13 @@ pub fn result_json(stage: &str, profile: &str, out: &Output) -> Value {
         "stage": stage,
         "profile": profile,
         "scalars": scalars,
-        "claims": out.claims.iter().map(claim_json).collect::<Vec<_>>(),
+        "measurements": out.claims.iter().map(measurement_json).collect::<Vec<_>>(),
         "checks": out.checks.iter().map(claim_json).collect::<Vec<_>>(),
     })
+}
+
+fn measurement_json(c: &crate::pipeline::context::Claim) -> Value {
+    serde_json::json!({ "id": c.id, "statement": c.statement, "ours": finite(c.ours) })
 }
 
 fn claim_json(c: &crate::pipeline::context::Claim) -> Value {

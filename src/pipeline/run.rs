@@ -670,7 +670,18 @@ fn publish_all(
     }
     if dir.is_dir() {
         let all: Vec<String> = p.stages.iter().map(|s| s.id.clone()).collect();
-        crate::report::html::write_index_of(&dir, &p.profile, &all)?;
+        // The claims ledger judged once on what is published, for the index, claims.json
+        // and claims.csv; and on the committed paper results, for the headline table.
+        let judged = crate::claims::evaluate_dir(p, &dir);
+        if let Some(j) = &judged {
+            crate::report::ledger::write_files(&dir, j)?;
+        }
+        let committed = p.root.join("results/paper");
+        let paper = (p.profile != "paper" && committed.is_dir())
+            .then(|| crate::pipeline::load(&p.path, "paper", &[]).ok())
+            .flatten()
+            .and_then(|pp| crate::claims::evaluate_dir(&pp, &committed));
+        crate::report::html::write_index_of(&dir, &p.profile, &all, judged.as_deref(), paper.as_deref())?;
     }
     Ok(())
 }

@@ -8,7 +8,7 @@
 
 pub use super::yaml::{canonical, to_json};
 use super::yaml::{has_path, merge, set_path, yaml_scalar_string};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -276,15 +276,8 @@ fn input_refs(spec: &InputsSpec) -> Vec<&str> {
 /// too), and the same problem is reported once.
 pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
     let mut diags = Diagnostics::default();
-    let root = path
-        .parent()
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| PathBuf::from("."));
-    let root = if root.as_os_str().is_empty() {
-        PathBuf::from(".")
-    } else {
-        root
-    };
+    let root = path.parent().filter(|r| !r.as_os_str().is_empty());
+    let root = root.map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
     if !PROFILES.contains(&profile) {
         diags.push(
             Path::new("<command line>"),
@@ -325,15 +318,23 @@ pub fn load_text(
         Ok(_) => vec![],
         Err(d) => d.0.clone(),
     };
+    let mut ids: BTreeSet<String> = main.iter().flat_map(|p| p.stages.iter().map(|s| s.id.clone())).collect();
     for other in PROFILES.iter().filter(|p| **p != profile) {
-        if let Err(d) = load_profile(path, text, root, other, sets) {
-            for mut x in d.0 {
+        match load_profile(path, text, root, other, sets) {
+            Ok(o) => ids.extend(o.stages.into_iter().map(|s| s.id)),
+            Err(d) => for mut x in d.0 {
                 if !all.contains(&x) {
                     x.message = format!("{} (profile `{other}`)", x.message);
                     all.push(x);
                 }
-            }
+            },
         }
+    }
+    // The claims ledger names stages of some profile (stages/ledger.yaml, crate::claims).
+    match crate::claims::read(root) {
+        Ok(Some((l, file, t))) if all.is_empty() => all.extend(crate::claims::validate(&l, &file, &t, &ids)),
+        Err(d) => all.extend(d),
+        _ => {}
     }
     match main {
         Ok(p) if all.is_empty() => Ok(p),

@@ -1,13 +1,17 @@
-//! `reports/<profile>/index.html`: every produced figure with its caption, profile and
-//! claim checks (paper value, ours, tolerance, pass/fail), in the chapter's order, opened
-//! by a per-section claims summary and the "error vs run time" table (from `wp-summary`),
-//! with the input checks listed apart; rebuilt from the published `ID.json` /
-//! `ID.record.json` files after each run.
+//! `reports/<profile>/index.html`: opened by the chapter's headline results and the
+//! ledger's counts per kind (`super::ledger`, from the one evaluation of
+//! `stages/ledger.yaml`), then the "error vs run time" table (from `wp-summary`), then every
+//! produced figure in the chapter's order with its caption and the ledger rows judged on
+//! it (with numbers), each section closed by its ledger table, and the input checks listed
+//! apart; rebuilt from the published `ID.json` / `ID.record.json` files after each run.
 
 use std::fmt::Write;
 use std::path::Path;
 
 use serde_json::Value;
+
+use super::ledger::{opening, rows_table, section_index};
+use crate::claims::judge::Judged;
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -25,14 +29,14 @@ fn num(v: &Value) -> String {
 }
 
 /// Rebuild the index of one profile's report directory.
-pub fn write_index(dir: &Path, profile: &str) -> std::io::Result<()> {
+pub fn write_index(dir: &Path, profile: &str, judged: Option<&[Judged]>) -> std::io::Result<()> {
     let ids: Vec<String> = std::fs::read_dir(dir)?
         .filter_map(|e| e.ok())
         .map(|e| e.file_name().to_string_lossy().to_string())
         .filter(|n| n.ends_with(".json") && !n.ends_with(".record.json"))
         .map(|n| n.trim_end_matches(".json").to_string())
         .collect();
-    write_index_of(dir, profile, &ids)
+    write_index_of(dir, profile, &ids, judged, None)
 }
 
 /// Where a stage sits in the chapter: (section, order key). Figures and tables by their
@@ -101,7 +105,15 @@ fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64
 /// run there, read from the `wp-summary` stage), every figure and table in chapter order
 /// (supporting stages after each section's figures), and the input and consistency
 /// checks listed apart at the end.
-pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Result<()> {
+/// `judged` is the ledger judged on this directory, `paper` on the committed paper results.
+pub fn write_index_of(
+    dir: &Path,
+    profile: &str,
+    ids: &[String],
+    judged: Option<&[Judged]>,
+    paper: Option<&[Judged]>,
+) -> std::io::Result<()> {
+    let judged = judged.unwrap_or(&[]);
     let ids: Vec<String> = ids
         .iter()
         .filter(|id| dir.join(format!("{id}.json")).exists())
@@ -122,12 +134,12 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         h,
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>granrepro — {p}</title>\
 <style>body{{font-family:sans-serif;max-width:1000px;margin:auto}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 6px;font-size:13px}}\
-.pass{{color:#17801b}}.fail{{color:#b00020;font-weight:bold}}figure{{border-top:1px solid #ddd;padding-top:8px}}</style></head><body>\
+.pass{{color:#17801b}}.fail{{color:#b00020;font-weight:bold}}.unres{{color:#8a5a00}}table.ledger td{{vertical-align:top}}figure{{border-top:1px solid #ddd;padding-top:8px}}</style></head><body>\
 <h1>granrepro report — profile <code>{p}</code></h1>\
-<p>Regenerated figures and tables of K. Kumar, <i>Multi-scale multiphase modelling of granular flows</i>, PhD thesis, University of Cambridge (2015), chapter 4 (DOI 10.5281/zenodo.160339, CC BY 4.0). Every number below comes from a run of this pipeline at the profile named; claims compare it with the chapter.</p>",
+<p>Regenerated figures and tables of K. Kumar, <i>Multi-scale multiphase modelling of granular flows</i>, PhD thesis, University of Cambridge (2015), chapter 4 (DOI 10.5281/zenodo.160339, CC BY 4.0). Every number below comes from a run of this pipeline at the profile named; the claims ledger compares it with the chapter, each claim once.</p>",
         p = esc(profile)
     );
-    // per-section claims and all checks, gathered first
+    // all checks, gathered first
     struct ClaimRow {
         stage: String,
         id: String,
@@ -136,9 +148,7 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
         ours: Value,
         tol: Value,
         pass: bool,
-        calibrated: bool,
     }
-    let mut claims: Vec<Vec<ClaimRow>> = (0..SECTIONS.len()).map(|_| Vec::new()).collect();
     let mut checks: Vec<ClaimRow> = Vec::new();
     let mut body = String::new();
     let mut ervt = String::new();
@@ -161,10 +171,9 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
             ours: c["ours"].clone(),
             tol: c["tolerance"].clone(),
             pass: c.get("pass").and_then(|p| p.as_bool()).unwrap_or(false),
-            calibrated: c.get("calibrated").and_then(|p| p.as_bool()).unwrap_or(false),
         };
-        let stage_claims: Vec<ClaimRow> = res
-            .get("claims")
+        let stage_measurements: Vec<ClaimRow> = res
+            .get("measurements")
             .and_then(|c| c.as_array())
             .map(|a| a.iter().map(row).collect())
             .unwrap_or_default();
@@ -174,6 +183,9 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
             .map(|a| a.iter().map(row).collect())
             .unwrap_or_default();
         if *sec != current {
+            if current != usize::MAX {
+                body.push_str(&section_ledger(judged, current));
+            }
             current = *sec;
             let _ = write!(body, "<h2 id=\"section-{current}\">{}</h2>", esc(SECTIONS[current]));
         }
@@ -263,23 +275,22 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
                 let _ = write!(body, "<p><small>{}</small></p>", esc(n.as_str().unwrap_or("")));
             }
         }
-        if !stage_claims.is_empty() {
-            body.push_str("<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th><th>tolerance</th><th>verdict</th></tr>");
-            for c in &stage_claims {
-                let _ = write!(
-                    body,
-                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}{}</td><td>{}</td><td class=\"{}\">{}</td></tr>",
-                    esc(&c.id),
-                    esc(&c.statement),
-                    num(&c.paper),
-                    num(&c.ours),
-                    if c.calibrated { " <b>(calibrated)</b>" } else { "" },
-                    num(&c.tol),
-                    if c.pass { "pass" } else { "fail" },
-                    verdict(c.pass, c.calibrated)
-                );
-            }
-            body.push_str("</table>");
+        // The ledger rows judged on this stage, then its other measurements.
+        let here: Vec<&Judged> = judged.iter().filter(|j| j.row.measure.all_stages().contains(&id.as_str())).collect();
+        if !here.is_empty() {
+            body.push_str(&rows_table(&here));
+        }
+        let unjudged: Vec<String> = stage_measurements
+            .iter()
+            .filter(|m| !here.iter().any(|j| j.row.measure.measurement.as_deref() == Some(m.id.as_str())))
+            .map(|m| format!("<code>{}</code> = {}", esc(&m.id), num(&m.ours)))
+            .collect();
+        if !unjudged.is_empty() {
+            let _ = write!(
+                body,
+                "<p><small>Measured here, not judged on this run by the ledger (the ledger judges each sentence once, at the conditions the chapter states it): {}</small></p>",
+                unjudged.join(" · ")
+            );
         }
         if !stage_checks.is_empty() {
             let failed = stage_checks.iter().filter(|c| !c.pass).count();
@@ -290,53 +301,21 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
             );
         }
         body.push_str("</figcaption></figure>\n");
-        claims[*sec].extend(stage_claims);
         checks.extend(stage_checks);
     }
-    // summary of the claims, per section
-    let all: Vec<&ClaimRow> = claims.iter().flatten().collect();
-    let (n_pass, n_fail, n_cal) = (
-        all.iter().filter(|c| c.pass && !c.calibrated).count(),
-        all.iter().filter(|c| !c.pass && !c.calibrated).count(),
-        all.iter().filter(|c| c.calibrated).count(),
-    );
+    if current != usize::MAX {
+        body.push_str(&section_ledger(judged, current));
+    }
     let (n_check_pass, n_check_fail) = (
         checks.iter().filter(|c| c.pass).count(),
         checks.iter().filter(|c| !c.pass).count(),
     );
     let _ = write!(
         h,
-        "<p>{} stages · <b>claims of the chapter: {n_pass} reproduced, {n_fail} not reproduced</b>, {n_cal} rest on a calibrated parameter (not counted) · consistency checks (inputs, identities; not claims): {n_check_pass} ok, {n_check_fail} failed</p>",
+        "<p>{} stages · input and consistency checks (not claims of the chapter): {n_check_pass} ok, {n_check_fail} failed (<a href=\"#checks\">listed at the end</a>) · every ledger row with its numbers: <a href=\"claims.csv\">claims.csv</a></p>",
         ids.len()
     );
-    h.push_str("<h2>Claims, section by section</h2><table><tr><th>section</th><th>reproduced</th><th>not reproduced</th><th>calibrated (not counted)</th><th>claims</th></tr>");
-    for (k, cs) in claims.iter().enumerate() {
-        if cs.is_empty() {
-            continue;
-        }
-        let list: Vec<String> = cs
-            .iter()
-            .map(|c| {
-                format!(
-                    "<a href=\"#{s}\">{s}</a>: {} <span class=\"{}\">{}</span>",
-                    esc(&c.id),
-                    if c.pass { "pass" } else { "fail" },
-                    verdict(c.pass, c.calibrated),
-                    s = esc(&c.stage)
-                )
-            })
-            .collect();
-        let _ = write!(
-            h,
-            "<tr><td><a href=\"#section-{k}\">{}</a></td><td>{}</td><td>{}</td><td>{}</td><td><small>{}</small></td></tr>",
-            esc(SECTIONS[k]),
-            cs.iter().filter(|c| c.pass && !c.calibrated).count(),
-            cs.iter().filter(|c| !c.pass && !c.calibrated).count(),
-            cs.iter().filter(|c| c.calibrated).count(),
-            list.join("<br>")
-        );
-    }
-    h.push_str("</table>");
+    h.push_str(&opening(judged, profile, paper));
     h.push_str("<h2 id=\"error-vs-run-time\">Error vs run time</h2>");
     if perr.is_empty() {
         h.push_str("<p><small>The work-precision atlas (<code>wp-summary</code>) has not been run for this profile: no measured errors to show.</small></p>");
@@ -374,11 +353,15 @@ pub fn write_index_of(dir: &Path, profile: &str, ids: &[String]) -> std::io::Res
     crate::pipeline::cache::write_atomic(&dir.join("index.html"), h.as_bytes())
 }
 
-fn verdict(pass: bool, calibrated: bool) -> &'static str {
-    match (pass, calibrated) {
-        (true, false) => "pass",
-        (false, false) => "FAIL",
-        (true, true) => "pass — calibrated, not a reproduction",
-        (false, true) => "FAIL — calibrated",
+/// The ledger rows of section `k`, closing it.
+fn section_ledger(judged: &[Judged], k: usize) -> String {
+    let rows: Vec<&Judged> = judged.iter().filter(|j| section_index(j) == k).collect();
+    if rows.is_empty() || k >= 3 {
+        return String::new();
     }
+    format!(
+        "<h3 id=\"ledger-{k}\">Claims of {}: the ledger</h3>{}",
+        esc(SECTIONS[k]),
+        rows_table(&rows)
+    )
 }

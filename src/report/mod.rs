@@ -1,5 +1,6 @@
 //! Reports: SVG charts and the HTML index.
 pub mod html;
+pub mod ledger;
 pub mod measured;
 pub mod plot;
 pub mod snapshot;

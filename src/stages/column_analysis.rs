@@ -161,6 +161,9 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
         .scalar("front_linearity_r2_08_28", lin_r2)
         .scalar("runout_norm_1tau", (value_at(&tn, r.l, 1.0) - r.l0) / r.l0)
         .scalar("runout_norm_3tau", (value_at(&tn, r.l, 3.0) - r.l0) / r.l0);
+    // E_p and E_d = E_0 − E_p − E_k at 3 τ_c (eqs 4.10, 4.12; fig 4.13's last time)
+    let (ep3, ek3, e0) = (value_at(&tn, r.ep, 3.0), value_at(&tn, r.ek, 3.0), r.ep.first().copied().unwrap_or(f64::NAN));
+    out.scalar("ep_over_e0_3tau", ep3 / e0).scalar("ed_over_e0_3tau", 1.0 - (ep3 + ek3) / e0);
     let m = r.method;
     out.claims.push(Claim::abs(
         "acceleration-phase",

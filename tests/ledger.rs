@@ -1,0 +1,288 @@
+//! Contract: the chapter's claims are judged once, from one ledger (`stages/ledger.yaml`,
+//! `src/claims`). Stages publish measurements, never verdicts; no sentence is judged twice
+//! on one measurement; a claim about a method is judged on that method; preparation
+//! targets are checks; the chapter's stated ± is the tolerance, never widened; everything
+//! downstream of a tuned stage carries the calibrated flag. Each test here fails on the
+//! tree before the ledger (stage-level verdicts, duplicates, wrong references).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+use granrepro::claims::judge::{Verdict, ancestors, judge};
+use granrepro::claims::{self, Kind, Ledger, Tolerance};
+use granrepro::pipeline::{Pipeline, load};
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn pipeline(profile: &str) -> Pipeline {
+    load(&root().join("pipeline.yaml"), profile, &[]).expect("the shipped pipeline and its ledger load")
+}
+
+fn ledger() -> Ledger {
+    claims::read(root()).expect("the ledger parses").expect("stages/ledger.yaml exists").0
+}
+
+/// Every stage id of both profiles.
+fn all_ids() -> BTreeSet<String> {
+    ["quick", "paper"]
+        .iter()
+        .flat_map(|p| pipeline(p).stages.into_iter().map(|s| s.id))
+        .collect()
+}
+
+#[test]
+fn the_shipped_ledger_is_valid_against_every_profile() {
+    let (l, file, text) = claims::read(root()).unwrap().unwrap();
+    let d = claims::validate(&l, &file, &text, &all_ids());
+    assert!(d.is_empty(), "{d:#?}");
+    assert!(l.claims.len() >= 60, "{} rows", l.claims.len());
+    // every headline result of the chapter is there
+    let heads: BTreeSet<&str> = l.claims.iter().filter_map(|r| r.headline.as_deref()).collect();
+    for h in [
+        "col-runout-low-exponent",
+        "col-runout-high-exponent",
+        "col-height-eq47",
+        "col-phases",
+        "col-energy-short",
+        "col-energy-tall",
+        "col-phi-cs",
+        "col-modulus",
+        "col-failure-angle",
+        "col-mu-e",
+        "col-inertial",
+        "col-dense-loose",
+        "pile-cd-mu",
+        "pile-alpha",
+        "pile-alpha-prime",
+        "pile-beta-prime",
+        "pile-tf-plateau",
+        "pile-beta-dprime",
+        "pile-k",
+        "pile-ke-dissipated",
+        "pile-base-friction",
+    ] {
+        assert!(heads.contains(h), "headline `{h}` missing");
+    }
+}
+
+#[test]
+fn stage_snapshots_carry_measurements_not_verdicts() {
+    // Before the ledger every stage judged its own claims (`claims:` with `pass:` in its
+    // golden snapshot), so the same sentence was judged in several places.
+    for e in std::fs::read_dir(root().join("golden")).unwrap() {
+        let p = e.unwrap().path();
+        let name = p.file_name().unwrap().to_string_lossy().to_string();
+        if name == "claims-ledger.snap" {
+            continue;
+        }
+        let t = std::fs::read_to_string(&p).unwrap();
+        assert!(!t.contains("\nclaims:"), "{name} still judges claims itself");
+    }
+}
+
+#[test]
+fn a_duplicate_sentence_on_one_measurement_is_refused() {
+    let (mut l, file, text) = claims::read(root()).unwrap().unwrap();
+    let mut twice = l.claims[0].clone();
+    twice.id = "the-same-again".into();
+    l.claims.push(twice);
+    let d = claims::validate(&l, &file, &text, &all_ids());
+    assert!(d.iter().any(|x| x.message.contains("same chapter sentence")), "{d:#?}");
+    let mut l2 = ledger();
+    let first = l2.claims[0].id.clone();
+    l2.claims[1].id = first;
+    let d = claims::validate(&l2, &file, &text, &all_ids());
+    assert!(d.iter().any(|x| x.message.contains("used twice")), "{d:#?}");
+}
+
+#[test]
+fn the_duplicates_of_the_old_report_are_judged_once() {
+    let l = ledger();
+    let judged: Vec<(String, String)> = l
+        .claims
+        .iter()
+        .flat_map(|r| {
+            let what = r.measure.measurement.clone().or(r.measure.scalar.clone()).unwrap_or_default();
+            r.measure.all_stages().into_iter().map(move |s| (s.to_string(), what.clone()))
+        })
+        .collect();
+    let has = |s: &str, m: &str| judged.iter().any(|(a, b)| a == s && b == m);
+    // pairs that measured one sentence twice (the old index counted both)
+    for (a, b) in [
+        (("column-claims", "mpm-longer-runout-tall"), ("energy-runout", "column-mpm-longer-tall")),
+        (("column-claims", "mpm-dem-short-runout"), ("energy-runout", "column-similar-short")),
+        (("fit-pile-tfp", "exponent"), ("pile-series-mpm", "beta1-tfp")),
+        (("fit-pile-tau", "exponent"), ("pile-series-mpm", "beta2-tau")),
+        (("fit-pile-k", "prefactor"), ("pile-series-mpm", "k")),
+        (("inertial-column", "mui-dense-regime"), ("col-mpm-mui-a6", "inertial-number-dense")),
+        (("fig4-03", "friction-angle"), ("calib-dem", "friction-angle")),
+    ] {
+        assert!(!(has(a.0, a.1) && has(b.0, b.1)), "{a:?} and {b:?} judge the same sentence");
+    }
+    // per-run measurements: judged at the chapter's conditions only
+    let on = |m: &str| judged.iter().filter(|(_, b)| b == m).count();
+    assert!(on("motion-persists-6tau") <= 1, "motion-persists-6tau judged on {} runs", on("motion-persists-6tau"));
+    assert!(on("comes-to-rest") <= 1, "comes-to-rest judged on {} runs", on("comes-to-rest"));
+    assert_eq!(on("height-undisturbed"), 0, "eq 4.7's low branch is judged on fit-height");
+    assert!(!judged.iter().any(|(s, _)| s == "col-dem-no-rolling-damper"), "the c_r = 0 variant re-counts the a = 0.4 claims");
+    assert!(!judged.iter().any(|(s, _)| s.starts_with("col-dem-hex-") || s.starts_with("col-mpm-mui-a")));
+}
+
+/// The method a stage simulates, from its kind (or its `method:`), when it is a run.
+fn method_of(p: &Pipeline, id: &str) -> Option<&'static str> {
+    let s = p.get(id)?;
+    let k = s.kind.as_str();
+    let from_param = s.params.get("method").and_then(|m| m.as_str()).unwrap_or("");
+    if k.starts_with("dem-") || k.starts_with("shear-dem") || from_param == "dem" {
+        Some("DEM")
+    } else if k.starts_with("mpm-") || from_param == "mpm" {
+        Some("MPM")
+    } else if k.starts_with("cd-") || from_param == "cd" {
+        Some("CD")
+    } else {
+        None
+    }
+}
+
+#[test]
+fn a_claim_about_one_method_is_judged_on_that_method() {
+    let p = pipeline("quick");
+    let l = ledger();
+    for r in &l.claims {
+        if !["DEM", "MPM", "CD"].contains(&r.method.as_str()) {
+            continue;
+        }
+        for s in r.measure.all_stages() {
+            if let Some(m) = method_of(&p, s) {
+                assert_eq!(m, r.method, "`{}` is about {} but reads {s}, a {m} run", r.id, r.method);
+            }
+        }
+    }
+    // The MPM dense-regime bound is not applied to DEM runs, and a DEM statistic is not
+    // judged against two opposite statements.
+    for r in &l.claims {
+        if r.measure.measurement.as_deref() == Some("inertial-number-dense") {
+            for s in r.measure.all_stages() {
+                assert_ne!(method_of(&p, s), Some("DEM"), "{}: the MPM dense-regime bound on a DEM run", r.id);
+            }
+        }
+    }
+    // "ceases at around 6τ_c" is the chapter's MPM a = 6 statement, not its DEM 3τ_c
+    for r in l.claims.iter().filter(|r| r.measure.stage == "col-mpm-a6") {
+        if r.measure.measurement.as_deref() == Some("spreading-ceases-3tau") {
+            assert_eq!(r.paper, 6.0, "{}", r.id);
+        }
+    }
+}
+
+#[test]
+fn a_stop_rule_that_cannot_end_early_makes_no_claim() {
+    // motion-persists-6tau on a run whose stop rule forbids an end before 6 τ_c cannot fail
+    let p = pipeline("quick");
+    for r in ledger().claims.iter().filter(|r| r.measure.measurement.as_deref() == Some("motion-persists-6tau")) {
+        for s in r.measure.all_stages() {
+            let t_min = p.get(s).unwrap().params["run"]["stop"]["t_min"].as_f64().unwrap();
+            assert!(t_min < 0.85 * r.paper, "{}: {s} cannot stop before {t_min} τ_c", r.id);
+        }
+    }
+}
+
+#[test]
+fn preparation_targets_and_calibration_targets_are_checks() {
+    for r in &ledger().claims {
+        let prep = r.measure.all_stages().iter().any(|s| s.contains("-prep-")) && r.measure.measurement.as_deref() == Some("packing-fraction");
+        if prep || r.measure.stage == "calib-dem" || r.id == "pile-slope" {
+            assert_eq!(r.kind, Kind::Check, "{} is a target our inputs decide", r.id);
+        }
+    }
+}
+
+#[test]
+fn the_stated_plus_minus_is_the_tolerance_never_widened() {
+    let (mut l, file, text) = claims::read(root()).unwrap().unwrap();
+    for r in &l.claims {
+        if let Some(pm) = r.stated {
+            assert_eq!(r.tolerance, Tolerance::Abs(pm), "{}", r.id);
+        }
+    }
+    // fit-pile-tfp's old tolerance: 2 s.e. + the chapter's ± = 0.223 from three runs
+    let r = l.claims.iter_mut().find(|r| r.id == "pile-tfp-exponent").unwrap();
+    r.tolerance = Tolerance::Abs(0.223);
+    let d = claims::validate(&l, &file, &text, &all_ids());
+    assert!(d.iter().any(|x| x.message.contains("states ±")), "{d:#?}");
+}
+
+#[test]
+fn the_calibrated_flag_reaches_everything_downstream_of_a_tuned_stage() {
+    let p = pipeline("quick");
+    let l = ledger();
+    // every stage "ran" and measured 1.0
+    let fake = |id: &str| -> Option<serde_json::Value> {
+        p.get(id)?;
+        let mut ms = Vec::new();
+        let mut sc = serde_json::Map::new();
+        for r in &l.claims {
+            let mut sides = vec![&r.measure];
+            sides.extend(r.measure.minus.as_deref().into_iter().chain(r.measure.over.as_deref()));
+            for m in sides {
+                if let Some(x) = &m.measurement {
+                    ms.push(serde_json::json!({"id": x, "ours": 1.0}));
+                }
+                for s in m.scalar.iter().chain(m.se.iter()) {
+                    sc.insert(s.clone(), 1.0.into());
+                }
+            }
+        }
+        Some(serde_json::json!({"measurements": ms, "scalars": sc}))
+    };
+    let graph: BTreeMap<String, Vec<String>> = claims::graph(&p);
+    let anc = ancestors(&graph);
+    let j = judge(&l, &fake, &anc);
+    assert!(j.iter().all(|x| x.verdict != Verdict::NoMeasurement));
+    for x in &j {
+        let downstream = x.row.measure.all_stages().iter().any(|s| anc[*s].contains("calib-dem"));
+        if downstream {
+            assert!(
+                x.calibrated.iter().any(|c| c.starts_with("calib-dem")),
+                "{} rests on calib-dem's μ_r but is not flagged calibrated",
+                x.id
+            );
+        }
+    }
+    let col = j.iter().find(|x| x.id == "col-phases-acc-a0.4").unwrap();
+    assert!(!col.calibrated.is_empty(), "a DEM column rests on calib-dem");
+    let stop = j.iter().find(|x| x.id == "col-motion-6tau").unwrap();
+    assert!(stop.calibrated.iter().any(|c| c.contains("stop threshold")), "{:?}", stop.calibrated);
+}
+
+#[test]
+fn a_bad_ledger_is_refused_before_anything_runs_naming_the_file_and_key() {
+    let t = tempfile::tempdir().unwrap();
+    std::fs::copy(root().join("pipeline.yaml"), t.path().join("pipeline.yaml")).unwrap();
+    let copy = |from: &Path, to: &Path| {
+        fn walk(a: &Path, b: &Path) {
+            std::fs::create_dir_all(b).unwrap();
+            for e in std::fs::read_dir(a).unwrap() {
+                let e = e.unwrap();
+                if e.path().is_dir() {
+                    walk(&e.path(), &b.join(e.file_name()));
+                } else {
+                    std::fs::copy(e.path(), b.join(e.file_name())).unwrap();
+                }
+            }
+        }
+        walk(from, to)
+    };
+    copy(&root().join("stages"), &t.path().join("stages"));
+    let f = t.path().join("stages/ledger.yaml");
+    let text = std::fs::read_to_string(&f).unwrap();
+    std::fs::write(&f, text.replacen("stage: fit-runout-dem,", "stage: fit-runout-dme,", 1)).unwrap();
+    let e = load(&t.path().join("pipeline.yaml"), "quick", &[]).err().expect("refused");
+    let msg = e.to_string();
+    assert!(msg.contains("ledger.yaml") && msg.contains("fit-runout-dme") && msg.contains("not declared"), "{msg}");
+    std::fs::write(&f, text.replacen("kind: quantitative", "kind: quantitive", 1)).unwrap();
+    let msg = load(&t.path().join("pipeline.yaml"), "quick", &[]).err().expect("refused").to_string();
+    assert!(msg.contains("ledger.yaml") && msg.contains("kind"), "{msg}");
+}
