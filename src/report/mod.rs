@@ -1,5 +1,6 @@
 //! Reports: SVG charts and the HTML index.
 pub mod html;
+pub mod legend;
 pub mod measured;
 pub mod plot;
 pub mod snapshot;
