@@ -206,9 +206,9 @@ impl Chart {
         let grey = RGBColor(90, 90, 90);
         if let Some(at) = fits_at {
             let (label, c) = match (fit_colors.as_slice(), table.len()) {
-                ([c], 1) => ("fit (dashed; coefficients below)", color(*c)),
-                ([c], _) => ("fits (dashed; coefficients below)", color(*c)),
-                _ => ("fits: dashed, colour of their data (table below)", grey),
+                ([c], 1) => ("fit (coefficients below)", color(*c)),
+                ([c], _) => ("fits (coefficients below)", color(*c)),
+                _ => ("fits, in their data's colour (below)", grey),
             };
             entries.insert(
                 at,
@@ -239,7 +239,7 @@ impl Chart {
                 entries.insert(
                     at,
                     Row {
-                        label: "dashed: fits and stated laws (table below)".into(),
+                        label: "fits and stated laws (below)".into(),
                         swatch: Swatch::Dashed,
                         color: grey,
                     },
@@ -368,50 +368,84 @@ impl Chart {
         Ok(Drawn { plot, samples })
     }
 
-    /// Draw the chart and its legend into one panel: the legend in the corner the data
-    /// leave empty, else in a margin right of the plot (below it when the panel is narrow).
-    fn draw_into<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, entries: &[Row]) -> anyhow::Result<()> {
+    /// Where the legend of `entries` goes in a panel `w` pixels wide: in the corner the
+    /// data leave empty (a trial drawing at the panel's size gives the data's pixels; the
+    /// layout does not depend on where the panel sits), else in a margin right of the plot,
+    /// or below it when the panel is too narrow for that.
+    fn place(&self, entries: &[Row], w: u32) -> anyhow::Result<Place> {
         if entries.is_empty() {
-            return self.draw_chart(area).map(|_| ());
+            return Ok(Place::None);
         }
         let size = box_size(entries);
-        let (w, h) = area.dim_in_pixel();
-        // a trial drawing at the panel's size gives the data's pixels (the layout does not
-        // depend on where the panel sits)
         let mut scratch = String::new();
-        let trial = self.draw_chart(&SVGBackend::with_string(&mut scratch, (w, h)).into_drawing_area())?;
-        if let Some(at) = choose_corner(&trial.samples, trial.plot, size, self.legend) {
-            self.draw_chart(area)?;
-            return draw_legend(area, entries, at);
-        }
-        if size.0 as f64 <= 0.4 * w as f64 {
-            let (left, right) = area.split_horizontally(w as i32 - size.0 - 8);
-            let d = self.draw_chart(&left)?;
-            let at = Rect {
-                x0: 0,
-                y0: d.plot.y0,
-                x1: size.0,
-                y1: d.plot.y0 + size.1,
-            };
-            draw_legend(&right, entries, at)
-        } else {
-            let (top, bottom) = area.split_vertically(h as i32 - size.1 - 4);
-            self.draw_chart(&top)?;
-            let x0 = ((w as i32 - size.0) / 2).max(0);
-            let at = Rect {
-                x0,
-                y0: 0,
-                x1: x0 + size.0,
-                y1: size.1,
-            };
-            draw_legend(&bottom, entries, at)
+        let trial = self.draw_chart(&SVGBackend::with_string(&mut scratch, (w, PANEL_HEIGHT)).into_drawing_area())?;
+        Ok(match choose_corner(&trial.samples, trial.plot, size, self.legend) {
+            Some(at) => Place::Inside(at),
+            None if size.0 as f64 <= 0.4 * w as f64 => Place::Right,
+            None => Place::Below,
+        })
+    }
+
+    /// Draw the chart (the top `PANEL_HEIGHT` pixels of `area`) and its legend where
+    /// [`Chart::place`] put it (a legend below goes under the panel, in `area`'s rest).
+    fn draw_into<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        entries: &[Row],
+        place: Place,
+    ) -> anyhow::Result<()> {
+        let (w, h) = area.dim_in_pixel();
+        let (top, rest) = area.split_vertically(PANEL_HEIGHT.min(h));
+        let size = box_size(entries);
+        match place {
+            Place::None => self.draw_chart(&top).map(|_| ()),
+            Place::Inside(at) => {
+                self.draw_chart(&top)?;
+                draw_legend(&top, entries, at)
+            }
+            Place::Right => {
+                let (left, right) = top.split_horizontally(w as i32 - size.0 - 8);
+                let d = self.draw_chart(&left)?;
+                let at = Rect {
+                    x0: 0,
+                    y0: d.plot.y0,
+                    x1: size.0,
+                    y1: d.plot.y0 + size.1,
+                };
+                draw_legend(&right, entries, at)
+            }
+            Place::Below => {
+                self.draw_chart(&top)?;
+                let x0 = ((w as i32 - size.0) / 2).max(0);
+                let at = Rect {
+                    x0,
+                    y0: 0,
+                    x1: x0 + size.0,
+                    y1: size.1,
+                };
+                draw_legend(&rest, entries, at)
+            }
         }
     }
 }
 
-/// Widest figure [px]: the report page shows a figure at most about this wide, so the
-/// panels of a row share this width instead of growing past it.
-pub const MAX_WIDTH: u32 = 1200;
+/// Where a panel's legend goes.
+#[derive(Debug, Clone, Copy)]
+enum Place {
+    /// No entries.
+    None,
+    /// In an empty corner of the plot.
+    Inside(Rect),
+    /// In a margin right of the plot.
+    Right,
+    /// Under the panel (the row grows by the legend's height).
+    Below,
+}
+
+/// Widest figure [px]: the report page's body is 1000 px wide (`report::html`), so the
+/// panels of a row share this width instead of growing past it (a wider figure is shrunk
+/// by the page until its text cannot be read).
+pub const MAX_WIDTH: u32 = 1000;
 /// Width of a panel when there is room [px].
 pub const PANEL_WIDTH: u32 = 760;
 /// Height of a panel [px].
@@ -436,7 +470,8 @@ pub fn panels_to_svg(charts: &[Chart], cols: usize, footer: &str) -> anyhow::Res
     let rows = charts.len().div_ceil(cols).max(1);
     let (w, columns) = panel_columns(cols);
     let mut entries = Vec::new();
-    let mut table = Vec::new();
+    // rows of the coefficient table, per column of panels (each column's under it)
+    let mut table: Vec<Vec<Row>> = vec![Vec::new(); cols];
     for (k, c) in charts.iter().enumerate() {
         let tag = if charts.len() > 1 {
             format!("({}) ", (b'a' + (k % 26) as u8) as char)
@@ -445,10 +480,30 @@ pub fn panels_to_svg(charts: &[Chart], cols: usize, footer: &str) -> anyhow::Res
         };
         let (e, t) = c.legend_plan(&tag);
         entries.push(e);
-        table.extend(t);
+        table[k % cols].extend(t);
     }
-    let (_, _, table_h) = table_layout(&table, w);
-    let body_h = PANEL_HEIGHT * rows as u32;
+    let places = charts
+        .iter()
+        .zip(&entries)
+        .enumerate()
+        .map(|(k, (c, e))| c.place(e, columns[k % cols].1))
+        .collect::<anyhow::Result<Vec<Place>>>()?;
+    // a row grows by the tallest legend placed under one of its panels
+    let row_h: Vec<u32> = (0..rows)
+        .map(|r| {
+            let below = (r * cols..((r + 1) * cols).min(charts.len()))
+                .filter(|&k| matches!(places[k], Place::Below))
+                .map(|k| box_size(&entries[k]).1 as u32 + 8)
+                .max()
+                .unwrap_or(0);
+            PANEL_HEIGHT + below
+        })
+        .collect();
+    let table_h = (0..cols)
+        .map(|c| table_layout(&table[c], columns[c].1).2)
+        .max()
+        .unwrap_or(0);
+    let body_h: u32 = row_h.iter().sum();
     let h = body_h + table_h as u32 + FOOTER;
     let mut svg = String::new();
     {
@@ -462,12 +517,15 @@ pub fn panels_to_svg(charts: &[Chart], cols: usize, footer: &str) -> anyhow::Res
             ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
         ))
         .map_err(err)?;
-        draw_table(&tab, &table)?;
-        for (k, (c, e)) in charts.iter().zip(&entries).enumerate() {
+        for (c, rows) in table.iter().enumerate() {
+            let (x, pw) = columns[c];
+            draw_table(&tab.clone().shrink((x, 0), (pw, table_h as u32)), rows)?;
+        }
+        for (k, c) in charts.iter().enumerate() {
             let (x, pw) = columns[k % cols];
-            let y = (PANEL_HEIGHT * (k / cols) as u32) as i32;
-            let area = body.clone().shrink((x, y), (pw, PANEL_HEIGHT));
-            c.draw_into(&area, e)?;
+            let y = row_h[..k / cols].iter().sum::<u32>() as i32;
+            let area = body.clone().shrink((x, y), (pw, row_h[k / cols]));
+            c.draw_into(&area, &entries[k], places[k])?;
         }
         root.present().map_err(err)?;
     }
