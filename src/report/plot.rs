@@ -637,6 +637,54 @@ mod tests {
         assert!(x1 <= svg_width(&svg), "legend leaves the figure: {x1}");
     }
 
+    /// Issue 26: fig4-05 listed 13 entries, fitted coefficients among them, in a box over
+    /// half the plot. Fits leave the legend for the table under the figure; past
+    /// `MAX_ENTRIES` the stated laws follow; each coefficient is printed once.
+    #[test]
+    fn fits_leave_the_legend_for_the_table() {
+        let line = vec![(1.0, 1.0), (2.0, 2.0)];
+        let mut series: Vec<Series> = ["DEM random packing", "DEM hexagonal packing", "MPM Mohr–Coulomb"]
+            .iter()
+            .enumerate()
+            .map(|(k, l)| Series::new(*l, Style::Points, vec![(1.0 + k as f64, 1.5)], k))
+            .collect();
+        for k in 0..8 {
+            series.push(Series::new(
+                format!("fit {k}: 1.{k}·x^(0.5 ± 0.1)"),
+                Style::Dashed,
+                line.clone(),
+                k % 3,
+            ));
+        }
+        for l in [
+            "stated law one",
+            "stated law two",
+            "stated law three",
+            "stated law four",
+        ] {
+            series.push(Series::new(l, Style::Dashed, line.clone(), 5));
+        }
+        let chart = Chart {
+            series,
+            ..Default::default()
+        };
+        let (entries, table) = chart.legend_plan("");
+        assert!(entries.len() <= MAX_ENTRIES, "{entries:?}");
+        assert!(entries.iter().all(|e| !e.label.contains('±')), "{entries:?}");
+        assert_eq!(table.len(), 12, "8 fits and 4 laws in the table: {table:?}");
+        let svg = chart.to_svg().unwrap();
+        for k in 0..8 {
+            assert_eq!(
+                svg.matches(&format!("fit {k}: 1.{k}·x^(0.5 ± 0.1)")).count(),
+                1,
+                "fit {k}"
+            );
+        }
+        // the markers are the chapter's: disk, asterisk (4 strokes), diamond
+        assert_eq!(chart.series[1].marker, Marker::Star);
+        assert_eq!(chart.series[2].marker, Marker::Diamond);
+    }
+
     /// Issue 26: fig4-33's second panel was cut at the figure's right edge. The panels of a
     /// row share the figure's width, which stays within `MAX_WIDTH` (the report page), and
     /// every title fits its panel.
