@@ -583,7 +583,9 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `plot`.
 pub const KIND: Kind = Kind {
     name: "plot",
-    version: 2,
+    // 3: the shared renderer places legends off the data, tables fitted coefficients,
+    // shares the figure width between panels and draws each method's marker (issue 26)
+    version: 3,
     about: "a figure declared in YAML: panels of series from upstream tables or sweep scalars, fits and stated laws dashed",
     params: typed::<PlotParams>,
     run,
