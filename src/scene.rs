@@ -13,7 +13,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::pipeline::spec::load_text;
+use crate::pipeline::profiles::load_text;
 use crate::pipeline::{Project, RunOptions};
 
 /// The scene file.

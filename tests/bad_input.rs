@@ -925,7 +925,7 @@ fn scene_without_psd_n_samples_enough_grains_for_its_column() {
         let sf = granrepro::scene::parse_scene(scene, text).unwrap();
         let doc = serde_yaml::to_string(&granrepro::scene::scene_pipeline(scene, &sf)).unwrap();
         let dir = tempfile::tempdir().unwrap();
-        let p = granrepro::pipeline::spec::load_text(&dir.path().join("pipeline.yaml"), &doc, dir.path(), "quick", &[])
+        let p = granrepro::pipeline::load_text(&dir.path().join("pipeline.yaml"), &doc, dir.path(), "quick", &[])
             .unwrap_or_else(|d| panic!("{text:?}: {d}"));
         let psd: granrepro::stages::psd::PsdParams =
             serde_json::from_value(p.get("psd").unwrap().params.clone()).unwrap();

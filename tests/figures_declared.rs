@@ -74,7 +74,9 @@ fn plot_and_compare_run_on_the_quick_matrix() {
         "d50 ratio of [1.8, 2.2] to [0.9, 1.1] mm grains: {ratio}"
     );
     assert!(
-        claims.iter().all(|c| c["ours"].as_f64().is_some_and(f64::is_finite) && c.get("pass").is_none()),
+        claims
+            .iter()
+            .all(|c| c["ours"].as_f64().is_some_and(f64::is_finite) && c.get("pass").is_none()),
         "{claims:?}"
     );
     assert_eq!(cmp["scalars"]["coarse-twice_pairs"].as_f64(), Some(2.0));

@@ -166,13 +166,36 @@ fn golden_numbers_quick_profile() {
     // The ledger judged on this run: each row's measurement, its mean and spread, and
     // its verdict, pinned once (the stages' snapshots hold only the measurements).
     if only.is_none() {
-        let judged = granrepro::claims::evaluate_dir(&p, &tmp.path().join("reports/quick")).expect("stages/ledger.yaml");
+        let judged =
+            granrepro::claims::evaluate_dir(&p, &tmp.path().join("reports/quick")).expect("stages/ledger.yaml");
         let unmeasured: Vec<&str> = judged
             .iter()
             .filter(|j| j.verdict == granrepro::claims::judge::Verdict::NoMeasurement)
             .map(|j| j.id.as_str())
             .collect();
-        assert!(unmeasured.is_empty(), "ledger rows whose stage publishes no such measurement: {unmeasured:?}");
+        assert!(
+            unmeasured.is_empty(),
+            "ledger rows whose stage publishes no such measurement: {unmeasured:?}"
+        );
+        // The published ledger (reports/quick/claims.json) judges each claim id once, and
+        // no chapter sentence twice on the same measurement.
+        let published: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(tmp.path().join("reports/quick/claims.json")).unwrap()).unwrap();
+        let mut ids = std::collections::BTreeSet::new();
+        let mut sentences = std::collections::BTreeSet::new();
+        for (c, j) in published.as_array().unwrap().iter().zip(&judged) {
+            assert!(
+                ids.insert(c["id"].as_str().unwrap().to_string()),
+                "claim id {} published twice",
+                c["id"]
+            );
+            assert!(
+                sentences.insert((j.row.chapter.clone(), j.row.measure.label())),
+                "{}: a sentence judged twice on one measurement",
+                j.id
+            );
+        }
+        assert_eq!(ids.len(), judged.len());
         let rows: Vec<serde_json::Value> = judged
             .iter()
             .map(|j| {

@@ -25,8 +25,8 @@ const MAX_LINES: usize = 800;
 /// Files over `MAX_LINES` today, with the count they may not exceed (only shrinks).
 const KNOWN_LONG: &[(&str, usize)] = &[
     ("src/dem/world.rs", 907),
-    ("src/pipeline/spec.rs", 1080),
-    ("src/stages/column_analysis.rs", 918),
+    ("src/pipeline/spec.rs", 1010),
+    ("src/stages/column_analysis.rs", 914),
     ("src/stages/dem_stages.rs", 1322),
     ("src/stages/mpm_stages.rs", 1237),
     ("src/stages/pile_series.rs", 950),

@@ -21,7 +21,10 @@ fn pipeline(profile: &str) -> Pipeline {
 }
 
 fn ledger() -> Ledger {
-    claims::read(root()).expect("the ledger parses").expect("stages/ledger.yaml exists").0
+    claims::read(root())
+        .expect("the ledger parses")
+        .expect("stages/ledger.yaml exists")
+        .0
 }
 
 /// Every stage id of both profiles.
@@ -104,30 +107,69 @@ fn the_duplicates_of_the_old_report_are_judged_once() {
         .claims
         .iter()
         .flat_map(|r| {
-            let what = r.measure.measurement.clone().or(r.measure.scalar.clone()).unwrap_or_default();
-            r.measure.all_stages().into_iter().map(move |s| (s.to_string(), what.clone()))
+            let what = r
+                .measure
+                .measurement
+                .clone()
+                .or(r.measure.scalar.clone())
+                .unwrap_or_default();
+            r.measure
+                .all_stages()
+                .into_iter()
+                .map(move |s| (s.to_string(), what.clone()))
         })
         .collect();
     let has = |s: &str, m: &str| judged.iter().any(|(a, b)| a == s && b == m);
     // pairs that measured one sentence twice (the old index counted both)
     for (a, b) in [
-        (("column-claims", "mpm-longer-runout-tall"), ("energy-runout", "column-mpm-longer-tall")),
-        (("column-claims", "mpm-dem-short-runout"), ("energy-runout", "column-similar-short")),
+        (
+            ("column-claims", "mpm-longer-runout-tall"),
+            ("energy-runout", "column-mpm-longer-tall"),
+        ),
+        (
+            ("column-claims", "mpm-dem-short-runout"),
+            ("energy-runout", "column-similar-short"),
+        ),
         (("fit-pile-tfp", "exponent"), ("pile-series-mpm", "beta1-tfp")),
         (("fit-pile-tau", "exponent"), ("pile-series-mpm", "beta2-tau")),
         (("fit-pile-k", "prefactor"), ("pile-series-mpm", "k")),
-        (("inertial-column", "mui-dense-regime"), ("col-mpm-mui-a6", "inertial-number-dense")),
+        (
+            ("inertial-column", "mui-dense-regime"),
+            ("col-mpm-mui-a6", "inertial-number-dense"),
+        ),
         (("fig4-03", "friction-angle"), ("calib-dem", "friction-angle")),
     ] {
-        assert!(!(has(a.0, a.1) && has(b.0, b.1)), "{a:?} and {b:?} judge the same sentence");
+        assert!(
+            !(has(a.0, a.1) && has(b.0, b.1)),
+            "{a:?} and {b:?} judge the same sentence"
+        );
     }
     // per-run measurements: judged at the chapter's conditions only
     let on = |m: &str| judged.iter().filter(|(_, b)| b == m).count();
-    assert!(on("motion-persists-6tau") <= 1, "motion-persists-6tau judged on {} runs", on("motion-persists-6tau"));
-    assert!(on("comes-to-rest") <= 1, "comes-to-rest judged on {} runs", on("comes-to-rest"));
-    assert_eq!(on("height-undisturbed"), 0, "eq 4.7's low branch is judged on fit-height");
-    assert!(!judged.iter().any(|(s, _)| s == "col-dem-no-rolling-damper"), "the c_r = 0 variant re-counts the a = 0.4 claims");
-    assert!(!judged.iter().any(|(s, _)| s.starts_with("col-dem-hex-") || s.starts_with("col-mpm-mui-a")));
+    assert!(
+        on("motion-persists-6tau") <= 1,
+        "motion-persists-6tau judged on {} runs",
+        on("motion-persists-6tau")
+    );
+    assert!(
+        on("comes-to-rest") <= 1,
+        "comes-to-rest judged on {} runs",
+        on("comes-to-rest")
+    );
+    assert_eq!(
+        on("height-undisturbed"),
+        0,
+        "eq 4.7's low branch is judged on fit-height"
+    );
+    assert!(
+        !judged.iter().any(|(s, _)| s == "col-dem-no-rolling-damper"),
+        "the c_r = 0 variant re-counts the a = 0.4 claims"
+    );
+    assert!(
+        !judged
+            .iter()
+            .any(|(s, _)| s.starts_with("col-dem-hex-") || s.starts_with("col-mpm-mui-a"))
+    );
 }
 
 /// The method a stage simulates, from its kind (or its `method:`), when it is a run.
@@ -165,7 +207,12 @@ fn a_claim_about_one_method_is_judged_on_that_method() {
     for r in &l.claims {
         if r.measure.measurement.as_deref() == Some("inertial-number-dense") {
             for s in r.measure.all_stages() {
-                assert_ne!(method_of(&p, s), Some("DEM"), "{}: the MPM dense-regime bound on a DEM run", r.id);
+                assert_ne!(
+                    method_of(&p, s),
+                    Some("DEM"),
+                    "{}: the MPM dense-regime bound on a DEM run",
+                    r.id
+                );
             }
         }
     }
@@ -181,7 +228,11 @@ fn a_claim_about_one_method_is_judged_on_that_method() {
 fn a_stop_rule_that_cannot_end_early_makes_no_claim() {
     // motion-persists-6tau on a run whose stop rule forbids an end before 6 τ_c cannot fail
     let p = pipeline("quick");
-    for r in ledger().claims.iter().filter(|r| r.measure.measurement.as_deref() == Some("motion-persists-6tau")) {
+    for r in ledger()
+        .claims
+        .iter()
+        .filter(|r| r.measure.measurement.as_deref() == Some("motion-persists-6tau"))
+    {
         for s in r.measure.all_stages() {
             let t_min = p.get(s).unwrap().params["run"]["stop"]["t_min"].as_f64().unwrap();
             assert!(t_min < 0.85 * r.paper, "{}: {s} cannot stop before {t_min} τ_c", r.id);
@@ -192,7 +243,8 @@ fn a_stop_rule_that_cannot_end_early_makes_no_claim() {
 #[test]
 fn preparation_targets_and_calibration_targets_are_checks() {
     for r in &ledger().claims {
-        let prep = r.measure.all_stages().iter().any(|s| s.contains("-prep-")) && r.measure.measurement.as_deref() == Some("packing-fraction");
+        let prep = r.measure.all_stages().iter().any(|s| s.contains("-prep-"))
+            && r.measure.measurement.as_deref() == Some("packing-fraction");
         if prep || r.measure.stage == "calib-dem" || r.id == "pile-slope" {
             assert_eq!(r.kind, Kind::Check, "{} is a target our inputs decide", r.id);
         }
@@ -254,7 +306,11 @@ fn the_calibrated_flag_reaches_everything_downstream_of_a_tuned_stage() {
     let col = j.iter().find(|x| x.id == "col-phases-acc-a0.4").unwrap();
     assert!(!col.calibrated.is_empty(), "a DEM column rests on calib-dem");
     let stop = j.iter().find(|x| x.id == "col-motion-6tau").unwrap();
-    assert!(stop.calibrated.iter().any(|c| c.contains("stop threshold")), "{:?}", stop.calibrated);
+    assert!(
+        stop.calibrated.iter().any(|c| c.contains("stop threshold")),
+        "{:?}",
+        stop.calibrated
+    );
 }
 
 #[test]
@@ -279,10 +335,18 @@ fn a_bad_ledger_is_refused_before_anything_runs_naming_the_file_and_key() {
     let f = t.path().join("stages/ledger.yaml");
     let text = std::fs::read_to_string(&f).unwrap();
     std::fs::write(&f, text.replacen("stage: fit-runout-dem,", "stage: fit-runout-dme,", 1)).unwrap();
-    let e = load(&t.path().join("pipeline.yaml"), "quick", &[]).err().expect("refused");
+    let e = load(&t.path().join("pipeline.yaml"), "quick", &[])
+        .err()
+        .expect("refused");
     let msg = e.to_string();
-    assert!(msg.contains("ledger.yaml") && msg.contains("fit-runout-dme") && msg.contains("not declared"), "{msg}");
+    assert!(
+        msg.contains("ledger.yaml") && msg.contains("fit-runout-dme") && msg.contains("not declared"),
+        "{msg}"
+    );
     std::fs::write(&f, text.replacen("kind: quantitative", "kind: quantitive", 1)).unwrap();
-    let msg = load(&t.path().join("pipeline.yaml"), "quick", &[]).err().expect("refused").to_string();
+    let msg = load(&t.path().join("pipeline.yaml"), "quick", &[])
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(msg.contains("ledger.yaml") && msg.contains("kind"), "{msg}");
 }

@@ -16,7 +16,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use serde::Serialize;
 use serde_json::Value;
 
-use super::{Kind, Ledger, Measure, Row, Tolerance};
+use super::ledger::{Kind, Ledger, Measure, Row, Tolerance};
 
 /// The outcome of one row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
@@ -93,12 +93,19 @@ fn mean_sd(x: &[f64]) -> (f64, Option<f64>) {
 /// Returns (verdict, tolerance or margin used, note).
 pub fn decide(paper: f64, rule: &Tolerance, mean: f64, se: Option<f64>, sd: Option<f64>) -> (Verdict, f64, String) {
     if !mean.is_finite() {
-        return (Verdict::Missed, f64::NAN, "no finite value (the fit or the run failed)".into());
+        return (
+            Verdict::Missed,
+            f64::NAN,
+            "no finite value (the fit or the run failed)".into(),
+        );
     }
     let members_for = |margin: f64| -> String {
         match sd {
             Some(s) if s > 0.0 && margin > 0.0 => {
-                format!("; about {} members would resolve it", ((2.0 * s / margin).powi(2).ceil() as usize).max(2))
+                format!(
+                    "; about {} members would resolve it",
+                    ((2.0 * s / margin).powi(2).ceil() as usize).max(2)
+                )
             }
             _ => String::new(),
         }
@@ -130,7 +137,12 @@ pub fn decide(paper: f64, rule: &Tolerance, mean: f64, se: Option<f64>, sd: Opti
             Some(s) if s > 0.0 && 2.0 * s >= margin => (
                 Verdict::NotResolved,
                 margin,
-                format!("2 s.e. = {:.3} ≥ the margin {:.3} to the bound{}", 2.0 * s, margin, members_for(margin)),
+                format!(
+                    "2 s.e. = {:.3} ≥ the margin {:.3} to the bound{}",
+                    2.0 * s,
+                    margin,
+                    members_for(margin)
+                ),
             ),
             Some(_) if ok => (Verdict::Reproduced, margin, String::new()),
             Some(_) => (Verdict::Missed, margin, String::new()),
@@ -189,7 +201,11 @@ struct Side {
 
 impl Side {
     fn read(m: &Measure, result: &dyn Fn(&str) -> Option<Value>) -> Side {
-        let mut s = Side { values: Vec::new(), fit_se: None, missing: false };
+        let mut s = Side {
+            values: Vec::new(),
+            fit_se: None,
+            missing: false,
+        };
         for id in m.stages() {
             let Some(res) = result(id) else { continue };
             match read_value(&res, m.measurement.as_deref(), m.scalar.as_deref()) {
@@ -246,14 +262,28 @@ pub fn judge(
             if let Some(t) = &r.tuned {
                 calibrated.insert(t.clone());
             }
-            let missing = (a.missing && a.values.is_empty())
-                || other.as_ref().is_some_and(|b| b.missing && b.values.is_empty());
+            let missing =
+                (a.missing && a.values.is_empty()) || other.as_ref().is_some_and(|b| b.missing && b.values.is_empty());
             let ran = !a.values.is_empty() && other.as_ref().is_none_or(|b| !b.values.is_empty());
             let mut values = a.values.clone();
             let (verdict, mean, sd, se, tolerance, note) = if missing {
-                (Verdict::NoMeasurement, f64::NAN, None, None, f64::NAN, format!("{} publishes no such measurement", m.label()))
+                (
+                    Verdict::NoMeasurement,
+                    f64::NAN,
+                    None,
+                    None,
+                    f64::NAN,
+                    format!("{} publishes no such measurement", m.label()),
+                )
             } else if !ran {
-                (Verdict::NotRun, f64::NAN, None, None, f64::NAN, "not run at this profile".into())
+                (
+                    Verdict::NotRun,
+                    f64::NAN,
+                    None,
+                    None,
+                    f64::NAN,
+                    "not run at this profile".into(),
+                )
             } else {
                 let (ma, sda, sea) = a.stats(r.chaotic);
                 let (mean, sd, se) = match &other {
@@ -266,7 +296,11 @@ pub fn judge(
                             (ma - mb, sd, sea.zip(seb).map(|(x, y)| x.hypot(y)))
                         } else {
                             let q = ma / mb;
-                            (q, sd.map(|_| f64::NAN), sea.zip(seb).map(|(x, y)| q.abs() * (x / ma).hypot(y / mb)))
+                            (
+                                q,
+                                sd.map(|_| f64::NAN),
+                                sea.zip(seb).map(|(x, y)| q.abs() * (x / ma).hypot(y / mb)),
+                            )
                         }
                     }
                 };
@@ -370,11 +404,29 @@ mod tests {
 
     #[test]
     fn bounds_and_ranges() {
-        assert_eq!(decide(1.0, &Tolerance::AtLeast(1.0), 1.2, Some(0.0), None).0, Verdict::Reproduced);
-        assert_eq!(decide(1.0, &Tolerance::AtLeast(1.0), 0.9, Some(0.0), None).0, Verdict::Missed);
-        assert_eq!(decide(1.0, &Tolerance::AtLeast(1.0), 1.05, Some(0.05), None).0, Verdict::NotResolved);
-        assert_eq!(decide(55.0, &Tolerance::Range(50.0, 55.0), 52.0, Some(0.0), None).0, Verdict::Reproduced);
-        assert_eq!(decide(55.0, &Tolerance::Range(50.0, 55.0), 56.0, Some(0.0), None).0, Verdict::Missed);
-        assert_eq!(decide(1.0, &Tolerance::Abs(0.1), f64::NAN, Some(0.0), None).0, Verdict::Missed);
+        assert_eq!(
+            decide(1.0, &Tolerance::AtLeast(1.0), 1.2, Some(0.0), None).0,
+            Verdict::Reproduced
+        );
+        assert_eq!(
+            decide(1.0, &Tolerance::AtLeast(1.0), 0.9, Some(0.0), None).0,
+            Verdict::Missed
+        );
+        assert_eq!(
+            decide(1.0, &Tolerance::AtLeast(1.0), 1.05, Some(0.05), None).0,
+            Verdict::NotResolved
+        );
+        assert_eq!(
+            decide(55.0, &Tolerance::Range(50.0, 55.0), 52.0, Some(0.0), None).0,
+            Verdict::Reproduced
+        );
+        assert_eq!(
+            decide(55.0, &Tolerance::Range(50.0, 55.0), 56.0, Some(0.0), None).0,
+            Verdict::Missed
+        );
+        assert_eq!(
+            decide(1.0, &Tolerance::Abs(0.1), f64::NAN, Some(0.0), None).0,
+            Verdict::Missed
+        );
     }
 }

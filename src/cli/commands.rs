@@ -237,7 +237,10 @@ fn load_or_report(pipeline: &Path, profile: ProfileArg) -> Option<crate::pipelin
 pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path) -> i32 {
     use crate::report::ledger::n4;
     let Some(judged) = crate::claims::evaluate_dir(p, dir) else {
-        eprintln!("error: {}: no claims ledger\n  help: the ledger is stages/ledger.yaml beside pipeline.yaml", p.root.display());
+        eprintln!(
+            "error: {}: no claims ledger\n  help: the ledger is stages/ledger.yaml beside pipeline.yaml",
+            p.root.display()
+        );
         return 2;
     };
     for j in &judged {

@@ -28,8 +28,9 @@ use std::collections::HashMap;
 use serde_json::{Value, json};
 
 use super::export::Measured;
+use super::profiles::load;
 use super::run::{Project, key_records};
-use super::spec::{Pipeline, Stage, load};
+use super::spec::{Pipeline, Stage};
 
 /// A night on the cluster [h].
 pub const NIGHT_H: f64 = 12.0;

@@ -11,6 +11,7 @@ pub mod export;
 pub mod fsio;
 pub mod order;
 pub mod plan;
+pub mod profiles;
 pub mod publish;
 pub mod run;
 pub mod spec;
@@ -19,5 +20,6 @@ pub mod yaml;
 
 pub use context::{Claim, InputRef, Output, StageCtx};
 pub use diag::{Diagnostic, Diagnostics};
+pub use profiles::{load, load_text};
 pub use run::{Outcome, Project, RunOptions, RunSummary};
-pub use spec::{Override, Pipeline, Stage, load};
+pub use spec::{Override, Pipeline, Stage};

@@ -8,7 +8,7 @@
 
 pub use super::yaml::{canonical, to_json};
 use super::yaml::{has_path, merge, set_path, yaml_scalar_string};
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -16,7 +16,7 @@ use serde_json::Value as Json;
 use serde_yaml::{Mapping, Value as Yaml};
 
 use super::check;
-use super::diag::{Diagnostic, Diagnostics, locate, locate_stage};
+use super::diag::{Diagnostics, locate, locate_stage};
 use crate::stages::{Kind, registry};
 
 /// Allowed profile names.
@@ -271,78 +271,7 @@ fn input_refs(spec: &InputsSpec) -> Vec<&str> {
     }
 }
 
-/// Load and validate a pipeline for a profile, applying `--set` overrides. Every
-/// profile is validated (a bad value in the `paper` layer is an error of a `quick` run
-/// too), and the same problem is reported once.
-pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
-    let mut diags = Diagnostics::default();
-    let root = path.parent().filter(|r| !r.as_os_str().is_empty());
-    let root = root.map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
-    if !PROFILES.contains(&profile) {
-        diags.push(
-            Path::new("<command line>"),
-            None,
-            "--profile",
-            format!("unknown profile `{profile}`"),
-            format!("allowed: {}", PROFILES.join(", ")),
-        );
-        return Err(diags);
-    }
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) => {
-            diags.push(
-                path,
-                None,
-                "",
-                format!("cannot read the pipeline file {}: {e}", path.display()),
-                "pass --pipeline PATH, or run from the directory holding pipeline.yaml",
-            );
-            return Err(diags);
-        }
-    };
-    load_text(path, &text, &root, profile, sets)
-}
-
-/// [`load`] from a pipeline text already read (`path` names it in messages; stage files
-/// are relative to `root`).
-pub fn load_text(
-    path: &Path,
-    text: &str,
-    root: &Path,
-    profile: &str,
-    sets: &[Override],
-) -> Result<Pipeline, Diagnostics> {
-    let main = load_profile(path, text, root, profile, sets);
-    let mut all: Vec<Diagnostic> = match &main {
-        Ok(_) => vec![],
-        Err(d) => d.0.clone(),
-    };
-    let mut ids: BTreeSet<String> = main.iter().flat_map(|p| p.stages.iter().map(|s| s.id.clone())).collect();
-    for other in PROFILES.iter().filter(|p| **p != profile) {
-        match load_profile(path, text, root, other, sets) {
-            Ok(o) => ids.extend(o.stages.into_iter().map(|s| s.id)),
-            Err(d) => for mut x in d.0 {
-                if !all.contains(&x) {
-                    x.message = format!("{} (profile `{other}`)", x.message);
-                    all.push(x);
-                }
-            },
-        }
-    }
-    // The claims ledger names stages of some profile (stages/ledger.yaml, crate::claims).
-    match crate::claims::read(root) {
-        Ok(Some((l, file, t))) if all.is_empty() => all.extend(crate::claims::validate(&l, &file, &t, &ids)),
-        Err(d) => all.extend(d),
-        _ => {}
-    }
-    match main {
-        Ok(p) if all.is_empty() => Ok(p),
-        _ => Err(check::dedupe(Diagnostics(all))),
-    }
-}
-
-fn load_profile(
+pub(crate) fn load_profile(
     path: &Path,
     text: &str,
     root: &Path,

@@ -276,13 +276,20 @@ pub fn write_index_of(
             }
         }
         // The ledger rows judged on this stage, then its other measurements.
-        let here: Vec<&Judged> = judged.iter().filter(|j| j.row.measure.all_stages().contains(&id.as_str())).collect();
+        let here: Vec<&Judged> = judged
+            .iter()
+            .filter(|j| j.row.measure.all_stages().contains(&id.as_str()))
+            .collect();
         if !here.is_empty() {
             body.push_str(&rows_table(&here));
         }
         let unjudged: Vec<String> = stage_measurements
             .iter()
-            .filter(|m| !here.iter().any(|j| j.row.measure.measurement.as_deref() == Some(m.id.as_str())))
+            .filter(|m| {
+                !here
+                    .iter()
+                    .any(|j| j.row.measure.measurement.as_deref() == Some(m.id.as_str()))
+            })
             .map(|m| format!("<code>{}</code> = {}", esc(&m.id), num(&m.ours)))
             .collect();
         if !unjudged.is_empty() {

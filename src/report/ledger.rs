@@ -23,7 +23,11 @@ pub fn n4(x: f64) -> String {
         format!("{x:.3e}")
     } else {
         let s = format!("{x:.4}");
-        if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     }
 }
 
@@ -63,7 +67,11 @@ fn ours_cell(j: &Judged) -> String {
     if j.values.is_empty() {
         return "—".into();
     }
-    let cal = if j.calibrated.is_empty() { "" } else { " <b title=\"rests on a tuned value\">(calibrated)</b>" };
+    let cal = if j.calibrated.is_empty() {
+        ""
+    } else {
+        " <b title=\"rests on a tuned value\">(calibrated)</b>"
+    };
     match (j.sd, j.se) {
         (Some(sd), _) => format!("{} ± {} (sd, n = {}){cal}", n4(j.mean), n4(sd), j.values.len()),
         (None, Some(se)) if se > 0.0 => format!("{} ± {} (s.e.){cal}", n4(j.mean), n4(se)),
@@ -94,9 +102,17 @@ pub fn rows_table(rows: &[&Judged]) -> String {
         let cal = if j.calibrated.is_empty() {
             String::new()
         } else {
-            format!("<br><small><b>calibrated:</b> {}</small>", esc(&j.calibrated.join("; ")))
+            format!(
+                "<br><small><b>calibrated:</b> {}</small>",
+                esc(&j.calibrated.join("; "))
+            )
         };
-        let reading = j.row.reading.as_deref().map(|r| format!("<br><small><i>reading:</i> {}</small>", esc(r))).unwrap_or_default();
+        let reading = j
+            .row
+            .reading
+            .as_deref()
+            .map(|r| format!("<br><small><i>reading:</i> {}</small>", esc(r)))
+            .unwrap_or_default();
         let _ = write!(
             h,
             "<tr id=\"claim-{id}\"><td><code>{id}</code><br><small>§{}</small></td><td>{}<br><small><i>measured:</i> {} — <code>{}</code></small>{reading}{cal}</td><td>{} · {}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
@@ -130,11 +146,14 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
     let paper_of = |id: &str| paper.and_then(|p| p.iter().find(|x| x.id == id));
     for hl in headlines(j) {
         let parts = &hl.parts;
-        let cell = |f: &dyn Fn(&Judged) -> String| -> String {
-            parts.iter().map(|p| f(p)).collect::<Vec<_>>().join("<br>")
-        };
+        let cell =
+            |f: &dyn Fn(&Judged) -> String| -> String { parts.iter().map(|p| f(p)).collect::<Vec<_>>().join("<br>") };
         let label = |p: &Judged| -> String {
-            if parts.len() > 1 { format!("<small>{}:</small> ", esc(&p.id)) } else { String::new() }
+            if parts.len() > 1 {
+                format!("<small>{}:</small> ", esc(&p.id))
+            } else {
+                String::new()
+            }
         };
         let why: Vec<String> = parts
             .iter()
@@ -164,10 +183,17 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
             chapter = esc(&parts[0].row.chapter),
             paper = cell(&|p| format!("{}{}", label(p), paper_cell(p))),
             ours = cell(&|p| format!("{}{}", label(p), ours_cell(p))),
-            ours_paper = cell(&|p| match paper_of(&p.id) {
-                Some(q) if !q.values.is_empty() => format!("{}{} ({})", label(p), ours_cell(q), q.verdict.name()),
-                _ => format!("{}not run yet", label(p)),
-            }),
+            ours_paper = if parts
+                .iter()
+                .any(|p| paper_of(&p.id).is_some_and(|q| !q.values.is_empty()))
+            {
+                cell(&|p| match paper_of(&p.id) {
+                    Some(q) if !q.values.is_empty() => format!("{}{} ({})", label(p), ours_cell(q), q.verdict.name()),
+                    _ => format!("{}not run yet", label(p)),
+                })
+            } else {
+                "not run yet".to_string()
+            },
             verdict = format!("<span class=\"{}\">{}</span>", class(hl.verdict), hl.verdict.name()),
             why = why.join("<br>"),
         );
@@ -216,7 +242,11 @@ pub fn write_files(dir: &Path, j: &[Judged]) -> std::io::Result<()> {
     crate::pipeline::cache::write_atomic(&dir.join("claims.json"), &json)?;
     let mut csv = String::from("id,kind,section,method,paper,mean,sd,se,n,tolerance,verdict,calibrated,measure\n");
     let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
-    let f = |x: Option<f64>| x.filter(|v| v.is_finite()).map(|v| format!("{v:e}")).unwrap_or_default();
+    let f = |x: Option<f64>| {
+        x.filter(|v| v.is_finite())
+            .map(|v| format!("{v:e}"))
+            .unwrap_or_default()
+    };
     for x in j {
         let _ = writeln!(
             csv,

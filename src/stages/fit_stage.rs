@@ -232,7 +232,10 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             .scalar(&format!("exponent_se{n}"), f.exponent_se)
             .scalar(&format!("prefactor{n}"), f.prefactor)
             // s.e. of the prefactor from that of its log: c·ln 10·s.e.(log10 c)
-            .scalar(&format!("prefactor_se{n}"), f.prefactor * std::f64::consts::LN_10 * f.log10_prefactor_se)
+            .scalar(
+                &format!("prefactor_se{n}"),
+                f.prefactor * std::f64::consts::LN_10 * f.log10_prefactor_se,
+            )
             .scalar(&format!("r2{n}"), f.r2);
     }
     if p.regimes == 2 {

@@ -204,11 +204,6 @@ mod tests {
         let phi = main_mass_packing(&s, Link::Contact { gap: 0.01 * r });
         assert!((phi - std::f64::consts::FRAC_PI_4).abs() < 1e-9, "φ = {phi}");
     }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::densification;
 
     #[test]
     fn a_mass_that_only_dilates_does_not_densify() {
