@@ -504,19 +504,22 @@ pub fn panels_to_svg(charts: &[Chart], cols: usize, footer: &str) -> anyhow::Res
         .max()
         .unwrap_or(0);
     let body_h: u32 = row_h.iter().sum();
-    let h = body_h + table_h as u32 + FOOTER;
+    let foot_lines = wrap_footer(footer, w);
+    let h = body_h + table_h as u32 + FOOTER + FOOTER_LINE * (foot_lines.len().max(1) as u32 - 1);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         let (body, rest) = root.split_vertically(body_h);
         let (tab, foot) = rest.split_vertically(table_h);
-        foot.draw(&Text::new(
-            footer.to_string(),
-            (10, 5),
-            ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
-        ))
-        .map_err(err)?;
+        for (i, line) in foot_lines.iter().enumerate() {
+            foot.draw(&Text::new(
+                line.clone(),
+                (10, 5 + (FOOTER_LINE as usize * i) as i32),
+                ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
+            ))
+            .map_err(err)?;
+        }
         for (c, rows) in table.iter().enumerate() {
             let (x, pw) = columns[c];
             draw_table(&tab.clone().shrink((x, 0), (pw, table_h as u32)), rows)?;
@@ -552,6 +555,16 @@ pub fn tick(v: f64) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_long_footer_wraps_inside_the_figure() {
+        // fig4-33's footer ran past the figure's right edge on one line
+        let long = format!("profile: quick · {}", "measured (wp-summary): CD error 3.8 ± 3.9 % at dt1e-4 ".repeat(6));
+        let lines = super::wrap_footer(&long, 1000);
+        assert!(lines.len() > 1, "{lines:?}");
+        assert!(lines.iter().all(|l| l.chars().count() as f64 * 6.6 <= 980.0), "{lines:?}");
+        assert_eq!(lines.join(" "), long);
+    }
+
     use super::*;
 
     /// `name="value"` of an SVG tag, as a number.
@@ -733,6 +746,30 @@ mod tests {
         assert_eq!(tick(-0.5), "-0.5");
         assert!(tick(1e-5).contains('e'), "{}", tick(1e-5));
     }
+}
+
+/// Height of each further footer line [px].
+const FOOTER_LINE: u32 = 16;
+
+/// The footer's lines, broken at its newlines and between words so that none passes the
+/// figure's width (12 px sans-serif: about 6.6 px per character).
+fn wrap_footer(footer: &str, width: u32) -> Vec<String> {
+    let max = ((width.saturating_sub(20)) as f64 / 6.6) as usize;
+    let mut out = Vec::new();
+    for para in footer.lines() {
+        let mut line = String::new();
+        for word in para.split(' ') {
+            if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > max {
+                out.push(std::mem::take(&mut line));
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line.push_str(word);
+        }
+        out.push(line);
+    }
+    out
 }
 
 /// Footer text every figure carries: profile and the measured error of that profile.
