@@ -1227,7 +1227,7 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-work-precision`.
 pub const WP_KIND: Kind = Kind {
     name: "mpm-work-precision",
-    version: 4,
+    version: 5,
     about: "MPM column run-out error vs wall time over PPC × cell size × Courant number",
     params: typed::<WorkPrecisionParams>,
     run: run_wp,
