@@ -10,9 +10,8 @@
 //! 2.7a^{2/3} (eq 4.6), and from y = 0 to 1.25 H_0 + 4h, plus ghost cells ("the extent of the
 //! background mesh in MPM is much larger than the initial column").
 //!
-//! Front (D01, issue 25): the deposit linked to the main mass at least `front.threshold_d` d̄
-//! thick, points as squares of half-width l_p (`crate::analysis::thick_front`), the same rule
-//! as the DEM's second run-out; the older linking rules are recorded beside it (`l_linked`).
+//! Front (D01): main mass = points linked within 1.5 × initial spacing, L = max(x + l_p),
+//! H = max(y + l_p).
 
 use super::boundary;
 use super::energy::{Energies, energies};
@@ -183,17 +182,21 @@ pub struct CollapseOptions {
     /// work-precision runs); its kinetic energy is the grid's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stop: Option<StopRule>,
-    /// The front rule of L(t), H(t) and the run-out (`analysis::thick_front`, issue 25).
+    /// The thick-deposit front (`analysis::thick_front`, issue 25), an additional
+    /// measurement only: reported as `runout_thick_norm` and the table
+    /// `runout_by_threshold`; L(t), H(t), the run-out and the stop rule keep the links below.
     #[serde(skip_serializing_if = "ThickRule::is_default")]
     pub front: ThickRule,
-    /// Older main-mass rule, recorded as `l_linked` and `runout_linked` only: points, as
-    /// bodies of half-size l_p, linked when their edges are within `link_gap` d̄. None: the
+    /// D01 linking gap [d̄ = material.grain_diameter]: points, as bodies of half-size l_p,
+    /// are linked when their edges are within the gap (the DEM rule). None: the older
     /// 1.5 × initial spacing centre distance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub link_gap: Option<Real>,
     /// D01 main mass through the grid: points linked when they share a background-grid
-    /// node (uGIMP support h + l_p; `analysis::front::Link::SharedNode`); replaces
-    /// `link_gap` for `l_linked`. It counts a one-point film and does not converge with h.
+    /// node (uGIMP support h + l_p; `analysis::front::Link::SharedNode`) — the MPM's
+    /// interaction, as contact is the DEM's. Replaces `link_gap` for L(t), H(t); the gap
+    /// sensitivity table is still recorded. Fixes the detached-toe jumps of a film whose
+    /// points drift apart by more than 2 l_p + gap inside their cells.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub link_grid: bool,
     /// Extra linking gaps [d̄] whose L(t) is recorded beside the main one.
@@ -231,12 +234,10 @@ impl Default for CollapseOptions {
 pub struct Sample {
     /// Time since release [s].
     pub t: Real,
-    /// Front L(t) [m] (`CollapseOptions::front`).
+    /// Front L(t) [m].
     pub l: Real,
-    /// Height H(t) [m] (same rule).
+    /// Height H(t) [m].
     pub h: Real,
-    /// L(t) of the older linking rule (`link_grid`, `link_gap`) [m].
-    pub l_linked: Real,
     /// Farthest right edge over all points, detached ones included [m] (diagnostic: the
     /// main-mass L depends on the linking distance of D01).
     pub l_all: Real,
@@ -431,10 +432,8 @@ pub struct CollapseResult {
     pub snapshots: Vec<Snapshot>,
     /// Final front.
     pub final_front: Front,
-    /// ΔL = (L_f − L_0)/L_0 [-] (`CollapseOptions::front`).
+    /// ΔL = (L_f − L_0)/L_0 [-] (D01 main mass, links 1.5 × initial spacing).
     pub runout: Real,
-    /// ΔL of the older linking rule (`link_grid`, `link_gap`) [-].
-    pub runout_linked: Real,
     /// ΔL of the main mass with dilation-following links ([`front_of_dilated`]) [-]: less
     /// sensitive to gaps opening in a thin deposit at coarse resolution.
     pub runout_dilated: Real,
@@ -660,17 +659,14 @@ pub fn run_collapse_with_progress(
         let e = energies(state, &el, g);
         let f = front_linked(state, lp, link);
         gap_lengths.push(lengths_linked(state, lp, &gaps));
-        let cloud = snapshot(state).cloud(lp);
-        let thick = opts.front.front(&cloud.body(), d);
-        let inertial_cg = coarse_grained(&cloud, grain);
+        let inertial_cg = coarse_grained(&snapshot(state).cloud(lp), grain);
         let l_all = state.points.iter().map(|p| p.x.x + lp).fold(0.0, Real::max);
         series.push(Sample {
             t: state.t,
-            l: thick.length,
-            h: thick.height,
-            l_linked: f.length,
+            l: f.length,
+            h: f.height,
             l_all,
-            main_fraction: thick.mass_fraction,
+            main_fraction: f.mass_fraction,
             l_dilated: front_of_dilated(state, lp, s).length,
             l_q99: mass_quantile_x(state, 0.99) + lp,
             e,
@@ -729,8 +725,7 @@ pub fn run_collapse_with_progress(
     }
     let wall_s = clock.elapsed().as_secs_f64();
     drop(record);
-    let final_front = opts.front.front(&snapshot(&col.state).cloud(lp).body(), d);
-    let linked = front_linked(&col.state, lp, link);
+    let final_front = front_linked(&col.state, lp, link);
     Ok(CollapseResult {
         spec: col.spec,
         points: col.state.points.len(),
@@ -739,7 +734,6 @@ pub fn run_collapse_with_progress(
         series,
         snapshots,
         runout: (final_front.length - col.spec.l0) / col.spec.l0,
-        runout_linked: (linked.length - col.spec.l0) / col.spec.l0,
         runout_dilated: (front_of_dilated(&col.state, lp, s).length - col.spec.l0) / col.spec.l0,
         runout_q99: (mass_quantile_x(&col.state, 0.99) + lp - col.spec.l0) / col.spec.l0,
         final_front,

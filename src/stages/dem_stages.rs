@@ -414,9 +414,7 @@ impl Validate for CollapseStageParams {
             }
         }
         c.check(self.run.link_gap >= 0.0, "run.link_gap", self.run.link_gap, "≥ 0 [d̄]");
-        if let Some((k, v, a)) = self.run.front.issue() {
-            c.fail(&format!("run.{k}"), v, a);
-        }
+        super::front_rules::check(&self.run.front, &mut c);
         c.check(
             self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()),
             "run.link_gap_sensitivity",

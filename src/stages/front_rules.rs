@@ -6,6 +6,13 @@ use crate::analysis::cloud::Cloud;
 use crate::analysis::thick_front::ThickRule;
 use crate::pipeline::context::{Output, frame};
 
+/// Check `run.front` of a column stage's parameters into `c`.
+pub fn check(rule: &ThickRule, c: &mut crate::validate::Checker) {
+    if let Some((k, v, a)) = rule.issue() {
+        c.fail(&format!("run.{k}"), v, a);
+    }
+}
+
 /// Thresholds of the sensitivity table [d̄].
 pub const THRESHOLDS_D: [f64; 3] = [0.5, 1.0, 2.0];
 
@@ -40,7 +47,8 @@ pub fn report(out: &mut Output, clouds: &[Cloud], d: f64, l0_tau: (f64, f64), ru
 }
 
 /// [`report`] for an MPM run: its snapshots, then its final state, points as squares of
-/// half-width `lp` [m]; `d` = d̄ [m], `tau` = τ_c [s].
+/// half-width `lp` [m]; `d` = d̄ [m], `tau` = τ_c [s]. An additional measurement: the
+/// MPM's run-out, L(t), H(t) and stop rule keep their links (docs/definitions.md D01).
 pub fn report_mpm(
     out: &mut Output,
     r: &crate::mpm::column::CollapseResult,
@@ -55,5 +63,7 @@ pub fn report_mpm(
         .chain([&r.final_state])
         .map(|s| s.cloud(lp))
         .collect();
-    report(out, &clouds, d, (r.spec.l0, tau), rule)
+    let v = report(out, &clouds, d, (r.spec.l0, tau), rule)?;
+    out.note(format!("Run-out by the thick-deposit front (an additional measurement; src/analysis/thick_front.rs, the rule the DEM column also reports): runout_thick_norm = {v:.3}, the farthest x up to which the deposit, connected to the main mass, is at least {} d̄ thick (points as squares of half-width l_p; table runout_by_threshold at 0.5, 1, 2 d̄). runout_norm, L(t), H(t) and the stop rule keep the grid/edge-gap links: at quick resolution the spreading sheet is about one point (≈ d̄) thick and flickers across the threshold, so an L(t) by this rule can jump backward by several L_0 (docs/definitions.md D01).", rule.threshold_d));
+    Ok(v)
 }

@@ -364,9 +364,7 @@ impl Validate for CollapseParams {
         if let Some(g) = self.run.link_gap {
             c.check(g >= 0.0 && g.is_finite(), "run.link_gap", g, "≥ 0 [d̄]");
         }
-        if let Some((k, v, a)) = self.run.front.issue() {
-            c.fail(&format!("run.{k}"), v, a);
-        }
+        super::front_rules::check(&self.run.front, &mut c);
         c.check(
             self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()),
             "run.link_gap_sensitivity",
@@ -390,7 +388,6 @@ pub fn series_table(r: &CollapseResult, g: f64) -> anyhow::Result<polars::prelud
         ("l_m", s.iter().map(|v| v.l).collect()),
         ("h_m", s.iter().map(|v| v.h).collect()),
         ("runout_norm", s.iter().map(|v| (v.l - l0) / l0).collect()),
-        ("runout_linked_norm", s.iter().map(|v| (v.l_linked - l0) / l0).collect()),
         ("h_over_l0", s.iter().map(|v| v.h / l0).collect()),
         ("ep_j", s.iter().map(|v| v.e.potential).collect()),
         ("ek_j", s.iter().map(|v| v.e.kinetic).collect()),
@@ -487,7 +484,6 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("points", r.points as f64)
         .scalar("runout_norm", r.runout)
         .scalar("runout_q99_norm", r.runout_q99)
-        .scalar("runout_linked_norm", r.runout_linked)
         .scalar("lf_m", r.final_front.length)
         .scalar("hf_over_l0", r.final_front.height / r.spec.l0)
         .scalar("t_end_over_tau_c", last.map(|s| s.t / tau).unwrap_or(0.0))
@@ -505,7 +501,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("stopped", if r.stopped { 1.0 } else { 0.0 })
         .scalar("steps", r.steps as f64)
         .scalar("friction_angle_deg", p.mpm.material.friction_deg);
-    out.note(format!("Run-out: the farthest x up to which the deposit, connected to the main mass, is at least {} d̄ thick (points as squares of half-width l_p; src/analysis/thick_front.rs) — the rule the DEM reports as runout_thick_norm. The older linking rule ({}) gives runout_linked_norm = {:.3}; runout_q99_norm (x below which 99 % of the mass lies, + l_p) is beside them.", p.run.front.threshold_d, if p.run.link_grid { "points sharing a grid node".to_string() } else { format!("edges within {:?} d̄", p.run.link_gap) }, r.runout_linked));
+    out.note("Run-out: D01 (farthest point linked to the main mass within 1.5 initial spacings) is the chapter's definition; at coarse resolution the 1–2-point-thick toe can detach and cut it suddenly, so runout_q99_norm (x below which 99 % of the mass lies, + l_p) is reported beside it.");
     out.note(format!("{} scheme, h = {} m, {} PPC ({} points), {note}; stopped = {} after {} steps; wall time {:.1} s (P2G {:.1} s, stress {:.1} s, G2P {:.1} s).",
         r.scheme, p.mpm.cell_size, p.mpm.ppc, r.points, r.stopped, r.steps, r.wall_s, r.times.p2g.as_secs_f64(), r.times.update_stress.as_secs_f64(), r.times.g2p.as_secs_f64()));
     let a = r.spec.h0 / r.spec.l0;
@@ -568,7 +564,11 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
                 inertial: &ist,
                 gaps: &p.run.link_gap_sensitivity,
                 gap_lengths: &r.gap_lengths,
-                link_gap: f64::NAN,
+                link_gap: if p.run.link_grid {
+                    f64::NAN
+                } else {
+                    p.run.link_gap.unwrap_or(f64::NAN)
+                },
                 at_tau: at_tau.as_ref(),
                 x_start: &r.initial.x,
                 x_end: &x_end,
@@ -602,8 +602,9 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         ));
         if let Some(rule) = p.run.stop {
             out.note(format!(
-                "Stop rule (shared with the DEM): after {} τ_c, grid E_k < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. L, H: the deposit at least {} d̄ thick (the edge-gap sensitivity table is kept).",
-                rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max, p.run.front.threshold_d
+                "Stop rule (shared with the DEM): after {} τ_c, grid E_k < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: {}.",
+                rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max,
+                if p.run.link_grid { "points linked when they share a background-grid node (uGIMP support h + l_p: the MPM's interaction, as contact is the DEM's; the edge-gap sensitivity table is kept)".to_string() } else { format!("points (half-size l_p) linked when their edges are within {} d̄ (the DEM's D01 rule)", p.run.link_gap.map(|g| g.to_string()).unwrap_or_else(|| "1.5 spacings (centre distance)".into())) }
             ));
         }
     }
@@ -718,7 +719,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "mpm-collapse",
-    version: 10,
+    version: 11,
     about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
     params: typed::<CollapseParams>,
     run: run_collapse_stage,
@@ -1227,7 +1228,7 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-work-precision`.
 pub const WP_KIND: Kind = Kind {
     name: "mpm-work-precision",
-    version: 5,
+    version: 4,
     about: "MPM column run-out error vs wall time over PPC × cell size × Courant number",
     params: typed::<WorkPrecisionParams>,
     run: run_wp,
