@@ -64,6 +64,6 @@ pub fn report_mpm(
         .map(|s| s.cloud(lp))
         .collect();
     let v = report(out, &clouds, d, (r.spec.l0, tau), rule)?;
-    out.note(format!("Run-out by the thick-deposit front (an additional measurement; src/analysis/thick_front.rs, the rule the DEM column also reports): runout_thick_norm = {v:.3}, the farthest x up to which the deposit, connected to the main mass, is at least {} d̄ thick (points as squares of half-width l_p; table runout_by_threshold at 0.5, 1, 2 d̄). runout_norm, L(t), H(t) and the stop rule keep the grid/edge-gap links: at quick resolution the spreading sheet is about one point (≈ d̄) thick and flickers across the threshold, so an L(t) by this rule can jump backward by several L_0 (docs/definitions.md D01).", rule.threshold_d));
+    out.note(format!("Run-out by the thick-deposit front (an additional measurement; src/analysis/thick_front.rs, the rule the DEM column also reports): runout_thick_norm = {v:.3}, the farthest x up to which the deposit, connected to the main mass, is at least {} d̄ thick (points as squares of half-width l_p; table runout_by_threshold at 0.5, 1, 2 d̄). runout_norm, L(t), H(t) and the stop rule keep the grid/edge-gap links: at quick resolution the spreading sheet is about one point (≈ d̄) thick and flickers across the threshold, so an L(t) by this rule can jump backward by more than the 0.5 L_0 bound at quick resolution (docs/definitions.md D01).", rule.threshold_d));
     Ok(v)
 }
