@@ -6,4 +6,5 @@ pub mod inertial;
 pub mod pile;
 pub mod runout;
 pub mod stop;
+pub mod thick_front;
 pub mod voronoi;

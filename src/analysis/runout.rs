@@ -37,6 +37,25 @@ pub fn line_fit(t: &[f64], y: &[f64], t0: f64, t1: f64) -> (f64, f64, usize) {
     (sty / stt, r2, pts.len())
 }
 
+/// Largest backward move of a front between consecutive samples, in units of `l0`
+/// (0 for a front that never moves back). A front that jumps back by a sizeable part of
+/// L_0 has lost a part of the mass to its rule, not to the flow (issue 25: ≤ 0.5 L_0).
+pub fn max_backward_jump(series: &[f64], l0: f64) -> f64 {
+    series.windows(2).map(|w| (w[0] - w[1]) / l0).fold(0.0, f64::max)
+}
+
+/// Largest fall of a series below its running maximum (0 if it never falls): the largest
+/// backward jump of L(t) counted from the farthest front reached so far [units of the series].
+pub fn max_drawdown(series: &[f64]) -> f64 {
+    let mut best = f64::NEG_INFINITY;
+    let mut drop: f64 = 0.0;
+    for &v in series {
+        best = best.max(v);
+        drop = drop.max(best - v);
+    }
+    drop
+}
+
 /// μ_e from the run-out (eqs 4.8–4.9, D17 first estimator): μ_e = H_0/(L_f − L_0).
 pub fn mu_e_geometric(h0: f64, l0: f64, lf: f64) -> f64 {
     h0 / (lf - l0)
@@ -174,6 +193,21 @@ mod deposit_tests {
             "a parabola is not a line: {}",
             poly_r2(&x, &para, 1)
         );
+    }
+
+    #[test]
+    fn backward_jump_is_between_consecutive_samples() {
+        // A growing front (L_0 = 2) that loses a toe of 1.5 at the fourth sample, then
+        // regrows, then creeps back by 0.1: the largest backward move is 1.5/2 = 0.75 L_0.
+        let l = [2.0, 2.5, 3.4, 1.9, 2.6, 3.5, 3.4];
+        assert!((max_backward_jump(&l, 2.0) - 0.75).abs() < 1e-12);
+        assert!(max_backward_jump(&l, 2.0) > 0.5, "this series fails the 0.5 L_0 test");
+        let ok = [2.0, 2.5, 3.4, 3.3, 3.6, 3.6];
+        assert!((max_backward_jump(&ok, 2.0) - 0.05).abs() < 1e-12);
+        assert_eq!(max_backward_jump(&[1.0, 2.0, 3.0], 1.0), 0.0);
+        assert_eq!(max_backward_jump(&[], 1.0), 0.0);
+        // From the running maximum, a creep back of 0.1 + 0.2 is one fall of 0.3.
+        assert!((max_drawdown(&[1.0, 3.0, 2.9, 2.7, 3.5]) - 0.3).abs() < 1e-12);
     }
 
     #[test]

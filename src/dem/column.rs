@@ -7,6 +7,7 @@ use crate::analysis::cloud::Cloud;
 use crate::analysis::front::{Body, Link, front, lengths_for_gaps};
 use crate::analysis::inertial::{Grain, coarse_grained};
 use crate::analysis::stop::{StopRule, Verdict};
+use crate::analysis::thick_front::ThickRule;
 use crate::dem::energy::Ledger;
 use crate::dem::error::DemError;
 use crate::dem::params::DemParams;
@@ -49,6 +50,10 @@ pub struct CollapseParams {
     /// Coarse-graining cell of the inertial-number statistics [d̄] (D08).
     #[serde(skip_serializing_if = "crate::analysis::inertial::is_default_cell")]
     pub inertial_cell: Real,
+    /// The thick-deposit front (`analysis::thick_front`, the MPM's rule), reported beside
+    /// the chapter's contact rule at rest as `runout_thick_norm`.
+    #[serde(skip_serializing_if = "ThickRule::is_default")]
+    pub front: ThickRule,
 }
 
 impl CollapseParams {
@@ -77,6 +82,7 @@ impl Default for CollapseParams {
             stop: None,
             link_gap_sensitivity: vec![],
             inertial_cell: 3.0,
+            front: ThickRule::default(),
         }
     }
 }

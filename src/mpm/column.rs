@@ -27,6 +27,7 @@ use crate::analysis::cloud::Cloud;
 use crate::analysis::front::{Body, Front, Link, front, lengths_for_gaps, main_mass};
 use crate::analysis::inertial::{Grain, coarse_grained};
 use crate::analysis::stop::{StopRule, Verdict};
+use crate::analysis::thick_front::ThickRule;
 use crate::math::Real;
 
 pub use super::column_spec::{ColumnSpec, DEM_COLUMN_AREA};
@@ -181,6 +182,11 @@ pub struct CollapseOptions {
     /// work-precision runs); its kinetic energy is the grid's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stop: Option<StopRule>,
+    /// The thick-deposit front (`analysis::thick_front`, issue 25), an additional
+    /// measurement only: reported as `runout_thick_norm` and the table
+    /// `runout_by_threshold`; L(t), H(t), the run-out and the stop rule keep the links below.
+    #[serde(skip_serializing_if = "ThickRule::is_default")]
+    pub front: ThickRule,
     /// D01 linking gap [d̄ = material.grain_diameter]: points, as bodies of half-size l_p,
     /// are linked when their edges are within the gap (the DEM rule). None: the older
     /// 1.5 × initial spacing centre distance.
@@ -214,6 +220,7 @@ impl Default for CollapseOptions {
             snapshot_tau: Vec::new(),
             skip_geostatic: false,
             stop: None,
+            front: ThickRule::default(),
             link_gap: None,
             link_grid: false,
             link_gap_sensitivity: Vec::new(),

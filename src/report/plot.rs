@@ -558,10 +558,16 @@ mod tests {
     #[test]
     fn a_long_footer_wraps_inside_the_figure() {
         // fig4-33's footer ran past the figure's right edge on one line
-        let long = format!("profile: quick · {}", "measured (wp-summary): CD error 3.8 ± 3.9 % at dt1e-4 ".repeat(6));
+        let long = format!(
+            "profile: quick · {}",
+            "measured (wp-summary): CD error 3.8 ± 3.9 % at dt1e-4 ".repeat(6)
+        );
         let lines = super::wrap_footer(&long, 1000);
         assert!(lines.len() > 1, "{lines:?}");
-        assert!(lines.iter().all(|l| l.chars().count() as f64 * 6.6 <= 980.0), "{lines:?}");
+        assert!(
+            lines.iter().all(|l| l.chars().count() as f64 * 6.6 <= 980.0),
+            "{lines:?}"
+        );
         assert_eq!(lines.join(" "), long);
     }
 

@@ -96,12 +96,7 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
             let lk: Vec<f64> = r.gap_lengths.iter().map(|row| row[k]).collect();
             let dl = |at: f64| (value_at(&tn, &lk, at) - r.l0) / r.l0;
             // Largest backward jump of L(t) (a chain losing contact), in L_0.
-            let mut best = f64::NEG_INFINITY;
-            let mut drop: f64 = 0.0;
-            for &v in &lk {
-                best = best.max(v);
-                drop = drop.max(best - v);
-            }
+            let drop = crate::analysis::runout::max_drawdown(&lk);
             gap_col.push(gd);
             for (c, v) in cols.iter_mut().zip([
                 dl(1.0),
@@ -141,6 +136,7 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
     let t_kemax = k_max.map(|k| tn[k]).unwrap_or(f64::NAN);
     let t_f = crate::analysis::front::stop_time(r.t, r.l, 0.5 * r.d) / tau;
     let (v_front, lin_r2, _) = line_fit(&tn, r.l, 0.8, 2.8);
+    let back_jump = crate::analysis::runout::max_backward_jump(r.l, r.l0);
     out.scalar("t_kemax_s", t_kemax * tau)
         .scalar("t_kemax_over_tau_c", t_kemax)
         .scalar("t_stop_over_tau_c", end)
@@ -148,7 +144,8 @@ fn analyse_all(out: &mut Output, r: &Run) -> anyhow::Result<()> {
         .scalar("front_speed_08_28_m_s", v_front / tau)
         .scalar("front_linearity_r2_08_28", lin_r2)
         .scalar("runout_norm_1tau", (value_at(&tn, r.l, 1.0) - r.l0) / r.l0)
-        .scalar("runout_norm_3tau", (value_at(&tn, r.l, 3.0) - r.l0) / r.l0);
+        .scalar("runout_norm_3tau", (value_at(&tn, r.l, 3.0) - r.l0) / r.l0)
+        .scalar("front_max_backward_jump_over_l0", back_jump);
     // E_p/E_0 and E_d/E_0 = 1 − (E_p + E_k)/E_0 at 3 τ_c (eqs 4.10, 4.12; fig 4.13's last time)
     let (ep3, ek3, e0) = (
         value_at(&tn, r.ep, 3.0),

@@ -414,6 +414,7 @@ impl Validate for CollapseStageParams {
             }
         }
         c.check(self.run.link_gap >= 0.0, "run.link_gap", self.run.link_gap, "≥ 0 [d̄]");
+        super::front_rules::check(&self.run.front, &mut c);
         c.check(
             self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()),
             "run.link_gap_sensitivity",
@@ -517,6 +518,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         });
     let a = r.h0 / r.l0;
     let dl = r.delta_l();
+    let at_rest = r.stop == crate::dem::column::StopReason::AtRest;
     let max_res = s.iter().map(|v| v.residual.abs()).fold(0.0, f64::max);
     out.scalar("a", a)
         .scalar("l0_m", r.l0)
@@ -547,14 +549,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("max_overlap_fraction", r.max_overlap_fraction)
         .scalar("dt_s", r.dt)
         .scalar("steps", r.steps as f64)
-        .scalar(
-            "at_rest",
-            if matches!(r.stop, crate::dem::column::StopReason::AtRest) {
-                1.0
-            } else {
-                0.0
-            },
-        );
+        .scalar("at_rest", f64::from(u8::from(at_rest)));
     // One run of a chaotic flow is not a claim: eq 4.6 is checked on ensemble means (with
     // their spread) by calib-dem; this stage shows the flow evolution of member 0.
     out.scalar("mu_r", p.dem.rolling.mu_r)
@@ -586,6 +581,9 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
             .filter(|s| (s.t / r.tau_c - 1.0).abs() < 0.05)
             .map(|s| cloud(&s.state, s.t));
         let fin = &r.snapshots[r.snapshots.len() - 1].state;
+        let clouds: Vec<_> = r.snapshots.iter().map(|s| cloud(&s.state, s.t)).collect();
+        let thick = super::front_rules::report(&mut out, &clouds, d_mean, (r.l0, r.tau_c), p.run.front)?;
+        out.note(format!("Run-out at rest: runout_norm = {dl:.3} is the chapter's rule (\"the farthest grain which has at least one contact with the main mass\": edges within {} d̄) and carries the DEM claims, as the chapter defines it; runout_thick_norm = {thick:.3} is the rule the MPM uses (the deposit connected to the main mass at least {} d̄ thick; table runout_by_threshold).", p.run.link_gap, p.run.front.threshold_d));
         let tt: Vec<f64> = s.iter().map(|v| v.t).collect();
         let ll: Vec<f64> = s.iter().map(|v| v.length).collect();
         let hh: Vec<f64> = s.iter().map(|v| v.height).collect();
@@ -615,7 +613,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
                 mass: &col.state.m,
                 phi_deg: phi,
                 mu_grain: p.dem.grain.friction,
-                at_rest: matches!(r.stop, crate::dem::column::StopReason::AtRest),
+                at_rest,
                 g: p.dem.gravity,
             },
         )?;
@@ -740,7 +738,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "dem-collapse",
-    version: 6,
+    version: 7,
     about: "DEM granular column collapse: L(t), H(t), energy ledger, until at rest",
     params: typed::<CollapseStageParams>,
     run: run_collapse_stage,

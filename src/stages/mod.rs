@@ -10,6 +10,7 @@ pub mod dem_common;
 pub mod dem_stages;
 pub mod energy_runout;
 pub mod fit_stage;
+pub mod front_rules;
 pub mod kind;
 pub mod laws;
 pub mod mpm_stages;

@@ -364,6 +364,7 @@ impl Validate for CollapseParams {
         if let Some(g) = self.run.link_gap {
             c.check(g >= 0.0 && g.is_finite(), "run.link_gap", g, "≥ 0 [d̄]");
         }
+        super::front_rules::check(&self.run.front, &mut c);
         c.check(
             self.run.link_gap_sensitivity.iter().all(|g| *g >= 0.0 && g.is_finite()),
             "run.link_gap_sensitivity",
@@ -474,11 +475,8 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     let kmax = r
         .series
         .iter()
-        .cloned()
-        .fold(None::<crate::mpm::column::Sample>, |acc, s| match acc {
-            Some(a) if a.e.kinetic >= s.e.kinetic => Some(a),
-            _ => Some(s),
-        });
+        .copied()
+        .reduce(|a, s| if a.e.kinetic >= s.e.kinetic { a } else { s });
     out.scalar("a", r.spec.h0 / r.spec.l0)
         .scalar("l0_m", r.spec.l0)
         .scalar("h0_m", r.spec.h0)
@@ -528,6 +526,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     // Per-run analysis shared with the DEM (stages::column_analysis).
     {
         let lp = p.mpm.half_width();
+        super::front_rules::report_mpm(&mut out, &r, lp, p.mpm.material.grain_diameter, tau, p.run.front)?;
         let at_tau = r
             .snapshots
             .iter()
@@ -720,7 +719,7 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `mpm-collapse`.
 pub const COLLAPSE_KIND: Kind = Kind {
     name: "mpm-collapse",
-    version: 9,
+    version: 11,
     about: "MPM granular column collapse: L(t), H(t), energies, plastic work until it stops",
     params: typed::<CollapseParams>,
     run: run_collapse_stage,
