@@ -196,8 +196,10 @@ pub fn stamp_svg(bytes: Vec<u8>, line: &str) -> Vec<u8> {
     if vbn.len() != 4 {
         return bytes;
     }
-    let strip = 16.0;
-    // the line sits in the viewBox's coordinates, below its old bottom
+    // font-size 10 sans-serif: about 5.6 px per character; wrapped inside the width
+    let lines = super::plot::wrap_words(line, ((vbn[2] - 20.0).max(100.0) / 5.6) as usize);
+    let strip = 16.0 + 13.0 * (lines.len().max(1) - 1) as f64;
+    // the lines sit in the viewBox's coordinates, below its old bottom
     let y0 = vbn[1] + vbn[3];
     let mut new_tag = tag.to_string();
     // replace the later attribute first so the earlier offsets stay valid
@@ -216,13 +218,18 @@ pub fn stamp_svg(bytes: Vec<u8>, line: &str) -> Vec<u8> {
     out.push_str(&new_tag);
     out.push_str(&text[start + len..end]);
     out.push_str(&format!(
-        "<rect x=\"{x}\" y=\"{y0}\" width=\"{w}\" height=\"{strip}\" fill=\"#FFFFFF\" stroke=\"none\"/>\n<text x=\"{tx}\" y=\"{ty}\" font-family=\"sans-serif\" font-size=\"10\" fill=\"#5A5A5A\">{}</text>\n",
-        esc(line),
+        "<rect x=\"{x}\" y=\"{y0}\" width=\"{w}\" height=\"{strip}\" fill=\"#FFFFFF\" stroke=\"none\"/>\n",
         x = vbn[0],
         w = vbn[2],
-        tx = vbn[0] + 10.0,
-        ty = y0 + 12.0,
     ));
+    for (i, l) in lines.iter().enumerate() {
+        out.push_str(&format!(
+            "<text x=\"{tx}\" y=\"{ty}\" font-family=\"sans-serif\" font-size=\"10\" fill=\"#5A5A5A\">{}</text>\n",
+            esc(l),
+            tx = vbn[0] + 10.0,
+            ty = y0 + 12.0 + 13.0 * i as f64,
+        ));
+    }
     out.push_str(&text[end..]);
     out.into_bytes()
 }
@@ -247,6 +254,19 @@ mod tests {
         assert!(out.contains("height=\"426\" viewBox=\"0 0 900 426.5\""), "{out}");
         // not an SVG we can read: unchanged
         assert_eq!(stamp_svg(b"<svg>".to_vec(), "l"), b"<svg>".to_vec());
+        // a line longer than the figure is wide wraps inside it (fig4-33's ran off the edge)
+        let svg = "<svg width=\"300\" height=\"100\" viewBox=\"0 0 300 100\">\n</svg>"
+            .as_bytes()
+            .to_vec();
+        let long = "measured (wp-summary): CD error 3.8 ± 3.9 % at dt1e-4-tol1e-4; DEM error 7.3 ± 9.4 %";
+        let out = String::from_utf8(stamp_svg(svg, long)).unwrap();
+        let texts: Vec<&str> = out.split("<text").skip(1).collect();
+        assert!(texts.len() >= 2, "{out}");
+        assert!(out.contains("height=\"129\""), "{out}");
+        for t in texts {
+            let body = t.split('>').nth(1).unwrap().split('<').next().unwrap();
+            assert!(body.chars().count() as f64 * 5.6 <= 280.0, "{body}");
+        }
     }
 
     #[test]

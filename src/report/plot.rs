@@ -760,7 +760,13 @@ const FOOTER_LINE: u32 = 16;
 /// The footer's lines, broken at its newlines and between words so that none passes the
 /// figure's width (12 px sans-serif: about 6.6 px per character).
 fn wrap_footer(footer: &str, width: u32) -> Vec<String> {
-    let max = ((width.saturating_sub(20)) as f64 / 6.6) as usize;
+    wrap_words(footer, ((width.saturating_sub(20)) as f64 / 6.6) as usize)
+}
+
+/// `text` broken at its newlines and between words into lines of at most `max` characters
+/// (a longer word keeps its own line).
+pub(crate) fn wrap_words(text: &str, max: usize) -> Vec<String> {
+    let footer = text;
     let mut out = Vec::new();
     for para in footer.lines() {
         let mut line = String::new();
