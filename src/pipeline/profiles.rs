@@ -1,6 +1,6 @@
 //! Loading a pipeline: every profile validated (a bad value in the `paper` layer is an
 //! error of a `quick` run too), each problem reported once, then the claims ledger
-//! (`stages/ledger.yaml`) checked against the stage ids of every profile. What one
+//! (`stages/ledger.yaml`) checked. What one
 //! profile resolves to is [`super::spec`]'s.
 
 use std::path::{Path, PathBuf};
@@ -53,25 +53,18 @@ pub fn load_text(
 ) -> Result<Pipeline, Diagnostics> {
     let main = load_profile(path, text, root, profile, sets);
     let mut all: Vec<Diagnostic> = main.as_ref().err().map(|d| d.0.clone()).unwrap_or_default();
-    let mut ids: Vec<String> = main
-        .iter()
-        .flat_map(|p| p.stages.iter().map(|s| s.id.clone()))
-        .collect();
     for other in PROFILES.iter().filter(|p| **p != profile) {
-        match load_profile(path, text, root, other, sets) {
-            Ok(o) => ids.extend(o.stages.into_iter().map(|s| s.id)),
-            Err(d) => {
-                for mut x in d.0 {
-                    if !all.contains(&x) {
-                        x.message = format!("{} (profile `{other}`)", x.message);
-                        all.push(x);
-                    }
+        if let Err(d) = load_profile(path, text, root, other, sets) {
+            for mut x in d.0 {
+                if !all.contains(&x) {
+                    x.message = format!("{} (profile `{other}`)", x.message);
+                    all.push(x);
                 }
             }
         }
     }
     if all.is_empty() {
-        all.extend(crate::claims::check(root, &ids)); // stages/ledger.yaml names stages of some profile
+        all.extend(crate::claims::check(root)); // stages/ledger.yaml, crate::claims
     }
     match main {
         Ok(p) if all.is_empty() => Ok(p),
