@@ -152,6 +152,9 @@ fn golden_numbers_quick_profile() {
                             round(c["paper"].as_f64().unwrap_or(f64::NAN), digits(id)),
                         );
                         m.insert("pass".into(), c["pass"].to_string());
+                        if c["calibrated"].as_bool() == Some(true) {
+                            m.insert("calibrated".into(), "true".into());
+                        }
                     }
                     m
                 })

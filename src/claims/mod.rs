@@ -20,7 +20,7 @@
 pub mod judge;
 pub mod ledger;
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 pub use ledger::{Kind, LEDGER_FILE, Ledger, Measure, Row, Tolerance, Tuned, check, read, validate};
@@ -43,13 +43,15 @@ pub fn graph(p: &crate::pipeline::Pipeline) -> BTreeMap<String, Vec<String>> {
 /// loader has refused it before anything ran).
 pub fn evaluate_dir(p: &crate::pipeline::Pipeline, dir: &Path) -> Option<Vec<judge::Judged>> {
     let (l, ..) = read(&p.root).ok()??;
-    let present: BTreeSet<&str> = p.stages.iter().map(|s| s.id.as_str()).collect();
-    let read_result = |id: &str| -> Option<serde_json::Value> {
-        if !present.contains(id) {
-            return None;
-        }
-        let b = std::fs::read(dir.join(format!("{id}.json"))).ok()?;
-        serde_json::from_slice(&b).ok()
-    };
+    // each published result read once (the rows read a stage several times)
+    let published: BTreeMap<&str, serde_json::Value> = p
+        .stages
+        .iter()
+        .filter_map(|s| {
+            let b = std::fs::read(dir.join(format!("{}.json", s.id))).ok()?;
+            Some((s.id.as_str(), serde_json::from_slice(&b).ok()?))
+        })
+        .collect();
+    let read_result = |id: &str| published.get(id).cloned();
     Some(judge::judge(&l, &read_result, &judge::ancestors(&graph(p))))
 }

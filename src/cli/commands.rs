@@ -244,12 +244,7 @@ pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path)
         return 2;
     };
     for j in &judged {
-        let ours = match (j.values.is_empty(), j.sd, j.se) {
-            (true, ..) => "—".to_string(),
-            (false, Some(sd), _) => format!("{} ± {} (sd, n = {})", n4(j.mean), n4(sd), j.values.len()),
-            (false, None, Some(se)) if se > 0.0 => format!("{} ± {} (s.e.)", n4(j.mean), n4(se)),
-            (false, ..) => n4(j.mean),
-        };
+        let ours = crate::report::ledger::ours_text(j);
         println!(
             "{:<34} {:<12} paper {:<10} ours {:<28} {}{}",
             j.id,

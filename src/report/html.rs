@@ -10,15 +10,8 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use super::ledger::{opening, rows_table, section_index};
+use super::ledger::{esc, opening, rows_table, section_index};
 use crate::claims::judge::Judged;
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
 
 fn num(v: &Value) -> String {
     match v.as_f64() {

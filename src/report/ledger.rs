@@ -8,7 +8,8 @@ use std::path::Path;
 use crate::claims::Kind;
 use crate::claims::judge::{Judged, Verdict, counts, headlines};
 
-fn esc(s: &str) -> String {
+/// `s` escaped for HTML text and attributes (the report's one escaper).
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -63,21 +64,27 @@ fn tol_cell(j: &Judged) -> String {
 }
 
 /// Ours: mean ± sd (n), or the single value (± fit s.e.).
-fn ours_cell(j: &Judged) -> String {
+/// Ours as plain text: mean ± sd (n) for an ensemble, ± s.e. for a fit, "(n = 1)" for one
+/// member of a chaotic output, "—" when not run.
+pub fn ours_text(j: &Judged) -> String {
     if j.values.is_empty() {
         return "—".into();
     }
-    let cal = if j.calibrated.is_empty() {
+    match (j.sd, j.se) {
+        (Some(sd), _) => format!("{} ± {} (sd, n = {})", n4(j.mean), n4(sd), j.values.len()),
+        (None, Some(se)) if se > 0.0 => format!("{} ± {} (s.e.)", n4(j.mean), n4(se)),
+        (None, None) => format!("{} (n = 1)", n4(j.mean)),
+        _ => n4(j.mean),
+    }
+}
+
+fn ours_cell(j: &Judged) -> String {
+    let cal = if j.calibrated.is_empty() || j.values.is_empty() {
         ""
     } else {
         " <b title=\"rests on a tuned value\">(calibrated)</b>"
     };
-    match (j.sd, j.se) {
-        (Some(sd), _) => format!("{} ± {} (sd, n = {}){cal}", n4(j.mean), n4(sd), j.values.len()),
-        (None, Some(se)) if se > 0.0 => format!("{} ± {} (s.e.){cal}", n4(j.mean), n4(se)),
-        (None, None) => format!("{} (n = 1){cal}", n4(j.mean)),
-        _ => format!("{}{cal}", n4(j.mean)),
-    }
+    format!("{}{cal}", esc(&ours_text(j)))
 }
 
 fn verdict_cell(j: &Judged) -> String {
