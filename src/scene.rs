@@ -181,9 +181,10 @@ pub fn default_psd_n(sf: &SceneFile) -> Option<u64> {
     if sf.psd.get("n").is_some() {
         return None;
     }
-    let d_min_mm = given(&sf.psd, "d_min_mm").unwrap_or(Some(crate::stages::psd::PsdParams::default().d_min_mm))?;
+    let d_min_mm =
+        given(&sf.psd, "d_min_mm").unwrap_or(Some(crate::stages::generic::psd::PsdParams::default().d_min_mm))?;
     let area =
-        given(&sf.column, "area_m2").unwrap_or(Some(crate::stages::dem_stages::PrepParams::default().area_m2))?;
+        given(&sf.column, "area_m2").unwrap_or(Some(crate::stages::column::dem_prep::PrepParams::default().area_m2))?;
     let r_min = 0.5e-3 * d_min_mm;
     let n = (1.15 * 0.85 * area / (std::f64::consts::PI * r_min * r_min)).ceil();
     (n.is_finite() && r_min > 0.0 && area > 0.0 && n <= 1e7).then_some((n as u64).max(10))

@@ -927,7 +927,7 @@ fn scene_without_psd_n_samples_enough_grains_for_its_column() {
         let dir = tempfile::tempdir().unwrap();
         let p = granrepro::pipeline::load_text(&dir.path().join("pipeline.yaml"), &doc, dir.path(), "quick", &[])
             .unwrap_or_else(|d| panic!("{text:?}: {d}"));
-        let psd: granrepro::stages::psd::PsdParams =
+        let psd: granrepro::stages::generic::psd::PsdParams =
             serde_json::from_value(p.get("psd").unwrap().params.clone()).unwrap();
         let area = p.get("column").unwrap().params["area_m2"].as_f64().unwrap();
         let d = psd.grading().sample(psd.n, psd.seed);

@@ -327,13 +327,13 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
 /// Problems with a stage's resolved inputs against its kind's roles: (message, help).
 pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) -> Vec<(String, String)> {
     let declared = match kind {
-        "plot" => serde_json::from_value::<crate::stages::plot::PlotParams>(params.clone())
+        "plot" => serde_json::from_value::<crate::stages::generic::plot::PlotParams>(params.clone())
             .ok()
             .map(|p| p.roles()),
-        "sweep-compare" => serde_json::from_value::<crate::stages::compare::CompareParams>(params.clone())
+        "sweep-compare" => serde_json::from_value::<crate::stages::generic::compare::CompareParams>(params.clone())
             .ok()
             .map(|p| p.roles()),
-        "snapshot" => serde_json::from_value::<crate::stages::snapshot::SnapParams>(params.clone())
+        "snapshot" => serde_json::from_value::<crate::stages::generic::snapshot::SnapParams>(params.clone())
             .ok()
             .map(|p| p.roles()),
         _ => None,

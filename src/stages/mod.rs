@@ -4,25 +4,17 @@
 
 pub mod calib;
 pub mod cd_stages;
-pub mod column_analysis;
-pub mod compare;
-pub mod dem_common;
+pub mod column;
 pub mod dem_stages;
 pub mod energy_runout;
-pub mod fit_stage;
-pub mod front_rules;
+pub mod generic;
 pub mod kind;
-pub mod laws;
 pub mod mpm_stages;
 pub mod pile_compare;
 pub mod pile_packing;
 pub mod pile_series;
 pub mod pile_stages;
-pub mod plot;
-pub mod psd;
 pub mod registry;
-pub mod snapshot;
-pub mod tables;
 pub mod wp_summary;
 
 pub use kind::{Kind, ParamProblem, ParamsFn, RunFn, Validate, decode, typed};

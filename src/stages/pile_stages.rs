@@ -919,7 +919,7 @@ fn snapshot_outputs(
     );
     out.table(
         "snapshots",
-        super::snapshot::frame_rows(&r.frames, "t_over_sqrt_d_g", tu)?,
+        crate::stages::generic::snapshot::frame_rows(&r.frames, "t_over_sqrt_d_g", tu)?,
     );
     let d = D_NORM;
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 5];

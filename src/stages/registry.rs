@@ -2,10 +2,11 @@
 
 use std::collections::BTreeMap;
 
+use super::generic::{compare, fit_stage, laws, plot, psd, snapshot, tables};
 use super::kind::Kind;
 use super::{
-    calib, cd_stages, column_analysis, compare, dem_stages, energy_runout, fit_stage, laws, mpm_stages, pile_compare,
-    pile_packing, pile_series, pile_stages, plot, psd, snapshot, tables, wp_summary,
+    calib, cd_stages, column, dem_stages, energy_runout, mpm_stages, pile_compare, pile_packing, pile_series,
+    pile_stages, wp_summary,
 };
 
 /// Every stage kind this build knows, by name.
@@ -16,9 +17,9 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         tables::KIND,
         fit_stage::KIND,
         laws::KIND,
-        dem_stages::PREP_KIND,
-        dem_stages::SNAPSHOT_KIND,
-        dem_stages::COLLAPSE_KIND,
+        column::dem_prep::PREP_KIND,
+        column::dem_snapshot::SNAPSHOT_KIND,
+        column::dem_collapse::COLLAPSE_KIND,
         dem_stages::SHEAR_KIND,
         dem_stages::COMPRESS_KIND,
         dem_stages::WP_KIND,
@@ -34,17 +35,17 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         cd_stages::SHEAR_KIND,
         cd_stages::SHEAR_FIGURE_KIND,
         cd_stages::WP_KIND,
-        mpm_stages::GEOSTATIC_KIND,
-        mpm_stages::COLLAPSE_KIND,
+        column::mpm_geostatic::GEOSTATIC_KIND,
+        column::mpm_collapse::COLLAPSE_KIND,
         mpm_stages::WP_KIND,
         wp_summary::KIND,
         plot::KIND,
         compare::KIND,
         snapshot::KIND,
-        column_analysis::SCHEME_KIND,
-        column_analysis::INERTIAL_KIND,
-        column_analysis::PACKING_KIND,
-        column_analysis::PAIR_KIND,
+        column::scheme::SCHEME_KIND,
+        column::inertial::INERTIAL_KIND,
+        column::packing::PACKING_KIND,
+        column::density_pair::PAIR_KIND,
     ];
     kinds.into_iter().map(|k| (k.name, k)).collect()
 }

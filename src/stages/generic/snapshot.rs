@@ -11,10 +11,10 @@ use anyhow::anyhow;
 use polars::prelude::DataFrame;
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::pipeline::context::{Output, StageCtx, col_f64, frame};
 use crate::report::plot::footer;
 use crate::report::snapshot::{Field, Segment, Shape, Snapshot};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// The `snapshots` table of a DEM collapse: one block of rows per instant.

@@ -129,3 +129,6 @@ pub(crate) fn column_from(input: &InputRef, density: f64) -> anyhow::Result<Colu
         histories: histories_from(input)?,
     })
 }
+
+/// Gravity used by the DEM stages (for documentation of τ_c).
+pub const GRAVITY: f64 = crate::math::G;

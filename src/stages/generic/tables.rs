@@ -6,9 +6,9 @@
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::math::PI;
 use crate::pipeline::context::{Claim, Output, StageCtx};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// Literature constants of the glass ballotini (table 4.1, Lajeunesse et al. 2004).

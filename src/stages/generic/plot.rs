@@ -16,9 +16,9 @@ use anyhow::{Context, anyhow};
 use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::pipeline::context::{InputRef, Output, StageCtx, col_f64};
 use crate::report::plot::{Chart, Legend, Series, Style, footer, panels_to_svg};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// One axis.

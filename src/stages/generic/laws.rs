@@ -5,9 +5,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::pipeline::context::{Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// A law by name: value at aspect ratio `a`.
