@@ -266,7 +266,7 @@ pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
             ("pile_dem", One),
             ("pile_mpm", One),
         ],
-        "pile-compare" => crate::stages::pile_compare::roles(params),
+        "pile-compare" => crate::stages::pile::compare::roles(params),
         "wp-summary" => vec![("sources", Many)],
         // μ_r and the rolling model from the joint calibration, when declared
         "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],

@@ -6,14 +6,10 @@ pub mod calib;
 pub mod cd_stages;
 pub mod column;
 pub mod dem_stages;
-pub mod energy_runout;
 pub mod generic;
 pub mod kind;
 pub mod mpm_stages;
-pub mod pile_compare;
-pub mod pile_packing;
-pub mod pile_series;
-pub mod pile_stages;
+pub mod pile;
 pub mod registry;
 pub mod wp_summary;
 

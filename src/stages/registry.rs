@@ -4,10 +4,7 @@ use std::collections::BTreeMap;
 
 use super::generic::{compare, fit_stage, laws, plot, psd, snapshot, tables};
 use super::kind::Kind;
-use super::{
-    calib, cd_stages, column, dem_stages, energy_runout, mpm_stages, pile_compare, pile_packing, pile_series,
-    pile_stages, wp_summary,
-};
+use super::{calib, cd_stages, column, dem_stages, mpm_stages, pile, wp_summary};
 
 /// Every stage kind this build knows, by name.
 pub fn registry() -> BTreeMap<&'static str, Kind> {
@@ -23,13 +20,13 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         dem_stages::SHEAR_KIND,
         dem_stages::COMPRESS_KIND,
         dem_stages::WP_KIND,
-        pile_stages::PREP_KIND,
-        pile_stages::RUN_KIND,
-        pile_stages::RUNOUT_KIND,
-        pile_series::KIND,
-        energy_runout::KIND,
-        pile_packing::KIND,
-        pile_compare::KIND,
+        pile::prep::PREP_KIND,
+        pile::run::RUN_KIND,
+        pile::runout::RUNOUT_KIND,
+        pile::series::KIND,
+        pile::energy_runout::KIND,
+        pile::packing::KIND,
+        pile::compare::KIND,
         calib::POINT_KIND,
         calib::CALIB_KIND,
         cd_stages::SHEAR_KIND,

@@ -10,13 +10,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::analysis::front::{Body, Link, main_mass};
 use crate::analysis::pile::{D_NORM, M_NORM, Profile, envelope_packing, excitation, surface_profile};
 use crate::dem::pile::pile_walls;
 use crate::dem::world::World;
 use crate::dem::{DemParams, State};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// Parameters of a `pile-packing` stage.

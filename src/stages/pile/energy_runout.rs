@@ -12,9 +12,9 @@
 use polars::prelude::{Column, DataFrame};
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::fit::power_law;
 use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// The column grain diameter d̄ [m] (SC-PSD, PSD-COL).

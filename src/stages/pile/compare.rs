@@ -11,9 +11,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// What to compare.
