@@ -2,24 +2,23 @@
 
 use std::collections::BTreeMap;
 
-use super::generic::{compare, fit_stage, laws, plot, psd, snapshot, tables};
 use super::kind::Kind;
-use super::{calib, cd_stages, column, dem_stages, mpm_stages, pile, wp_summary};
+use super::{calib, column, generic, pile, work_precision};
 
 /// Every stage kind this build knows, by name.
 pub fn registry() -> BTreeMap<&'static str, Kind> {
     let kinds = [
-        psd::KIND,
-        psd::FIGURE_KIND,
-        tables::KIND,
-        fit_stage::KIND,
-        laws::KIND,
+        generic::psd::KIND,
+        generic::psd::FIGURE_KIND,
+        generic::tables::KIND,
+        generic::fit_stage::KIND,
+        generic::laws::KIND,
         column::dem_prep::PREP_KIND,
         column::dem_snapshot::SNAPSHOT_KIND,
         column::dem_collapse::COLLAPSE_KIND,
-        dem_stages::SHEAR_KIND,
-        dem_stages::COMPRESS_KIND,
-        dem_stages::WP_KIND,
+        calib::dem_shear::SHEAR_KIND,
+        calib::dem_compress::COMPRESS_KIND,
+        work_precision::dem_wp::WP_KIND,
         pile::prep::PREP_KIND,
         pile::run::RUN_KIND,
         pile::runout::RUNOUT_KIND,
@@ -27,18 +26,18 @@ pub fn registry() -> BTreeMap<&'static str, Kind> {
         pile::energy_runout::KIND,
         pile::packing::KIND,
         pile::compare::KIND,
-        calib::POINT_KIND,
-        calib::CALIB_KIND,
-        cd_stages::SHEAR_KIND,
-        cd_stages::SHEAR_FIGURE_KIND,
-        cd_stages::WP_KIND,
+        calib::dem_calibration::POINT_KIND,
+        calib::dem_calibration::CALIB_KIND,
+        calib::cd_shear::SHEAR_KIND,
+        calib::cd_shear_figure::SHEAR_FIGURE_KIND,
+        work_precision::cd_wp::WP_KIND,
         column::mpm_geostatic::GEOSTATIC_KIND,
         column::mpm_collapse::COLLAPSE_KIND,
-        mpm_stages::WP_KIND,
-        wp_summary::KIND,
-        plot::KIND,
-        compare::KIND,
-        snapshot::KIND,
+        work_precision::mpm_wp::WP_KIND,
+        work_precision::wp_summary::KIND,
+        generic::plot::KIND,
+        generic::compare::KIND,
+        generic::snapshot::KIND,
         column::scheme::SCHEME_KIND,
         column::inertial::INERTIAL_KIND,
         column::packing::PACKING_KIND,

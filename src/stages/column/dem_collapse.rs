@@ -131,7 +131,7 @@ fn packing_table(col: &Column, r: &CollapseResult) -> anyhow::Result<(polars::pr
 
 fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut p: CollapseStageParams = decode(ctx)?;
-    let calibrated = crate::stages::calib::apply_calibration(ctx, &mut p.dem)?;
+    let calibrated = crate::stages::calib::dem_calibration::apply_calibration(ctx, &mut p.dem)?;
     let run = p.dem.softened(p.stiffness_factor);
     let col = column_from(ctx.input("column")?, run.density)?;
     let r = collapse(&col, &run, &p.run)?;
@@ -196,8 +196,8 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
     // One run of a chaotic flow is not a claim: eq 4.6 is checked on ensemble means (with
     // their spread) by calib-dem; this stage shows the flow evolution of member 0.
     out.scalar("mu_r", p.dem.rolling.mu_r)
-        .scalar("runout_eq46", crate::stages::calib::eq46(a));
-    out.note(format!("Single run: ΔL = {dl:.3} against eq 4.6's {:.3}; the run-out is chaotic (±0.05 from a 1e-9 m perturbation), so the claim is made on ensemble means by calib-dem.", crate::stages::calib::eq46(a)));
+        .scalar("runout_eq46", crate::stages::calib::dem_calibration::eq46(a));
+    out.note(format!("Single run: ΔL = {dl:.3} against eq 4.6's {:.3}; the run-out is chaotic (±0.05 from a 1e-9 m perturbation), so the claim is made on ensemble means by calib-dem.", crate::stages::calib::dem_calibration::eq46(a)));
     if calibrated {
         out.note(format!(
             "Rolling friction μ_r = {} ({:?} model) from the joint calibration (calibrated).",

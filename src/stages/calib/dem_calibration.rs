@@ -16,13 +16,13 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::dem::column::{CollapseParams, CollapseResult, collapse, mean_std};
 use crate::dem::prep::Column;
 use crate::dem::shear::{ShearParams, shear_test};
 use crate::dem::{DemParams, RollingModel};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// Eq 4.6: the chapter's DEM run-out law.
@@ -121,7 +121,7 @@ impl Default for PointParams {
 impl Validate for PointParams {
     fn validate(&self) -> Vec<Issue> {
         let mut c = Checker::new("");
-        super::column::dem_common::check_dem(&self.dem, self.stiffness_factor, &mut c);
+        crate::stages::column::dem_common::check_dem(&self.dem, self.stiffness_factor, &mut c);
         c.check(
             self.mu_r.is_finite() && (0.0..=2.0).contains(&self.mu_r),
             "mu_r",
@@ -181,7 +181,7 @@ fn run_point(ctx: &StageCtx) -> anyhow::Result<Output> {
     ctx.set_progress(0.0);
     let cols = columns
         .iter()
-        .map(|i| super::column::dem_common::column_from(i, run.density))
+        .map(|i| crate::stages::column::dem_common::column_from(i, run.density))
         .collect::<anyhow::Result<Vec<Column>>>()?;
     // The shear test and every collapse of every column are independent scenes: run them
     // side by side (each scene is small and steps on one thread, PAR_MIN_ITEMS).

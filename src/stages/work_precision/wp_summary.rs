@@ -22,9 +22,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Kind, Validate, decode, typed};
 use crate::pipeline::context::{InputRef, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
+use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
 /// Parameters of a `wp-summary` stage.

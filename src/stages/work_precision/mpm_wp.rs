@@ -1,21 +1,14 @@
-//! MPM stage kinds: `mpm-geostatic` (fig4-04), `mpm-collapse` (column collapse time
-//! series) and `mpm-work-precision` (run-out error against wall time over PPC × cell size
-//! × Courant number).
-//!
-//! Multi-scale link: when a stage declares the inputs `shear` (DEM periodic shear test,
-//! scalar `friction_angle_deg`) and/or `compression` (DEM confined compression, scalar
-//! `youngs_modulus_pa`), those measured values replace table 4.3's φ and E — so a change
-//! to a DEM parameter re-runs these stages through the DAG. `use_dem_calibration: false`
-//! keeps the table values for comparison.
+//! Kind `mpm-work-precision`: MPM column run-out error against wall time over PPC × cell
+//! size × Courant number (and the alternative shape functions and update scheme).
 
 use serde::{Deserialize, Serialize};
 
-use super::column::mpm_common::{calibrate, check_mpm, explain_mpm};
 use super::wp_summary::ensemble_error;
 use crate::mpm::column::{CollapseOptions, CollapseResult, ColumnSpec, collapse};
 use crate::mpm::{MpmParams, StepRule};
 use crate::pipeline::context::{Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
+use crate::stages::column::mpm_common::{calibrate, check_mpm, explain_mpm};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
