@@ -20,11 +20,18 @@
 //! then each grain sums its pairs in increasing pair order, and scalar partials are summed
 //! chunk by chunk in chunk order. Nothing depends on the thread count, so results are
 //! bit-identical for any number of threads.
+//!
+//! The team scheduling of [`World::run`] (timed probes, blocks, rests) is in
+//! `world/schedule.rs`; the scratch and the contact histories (saved, restored) in
+//! `world/history.rs`; the world's fields in `world/data.rs`.
 
 mod data;
+mod history;
+mod schedule;
 
 pub use crate::dem::scratch::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, PAR_MIN_ITEMS};
 pub use data::{SavedHistories, StepInfo, World};
+pub use schedule::{TEAM_BLOCK, TEAM_PROBE, TEAM_REFRESH, TEAM_REST};
 
 use crate::dem::contact_law::{Law, LawCoeffs};
 use crate::dem::energy::{Balance, Energies, Ledger};
@@ -34,7 +41,7 @@ use crate::dem::neighbors::NeighborList;
 use crate::dem::params::{DemParams, RollingDamping, normal_damping};
 use crate::dem::passes::{GrainPass, PairPass, grain_chunk_deps};
 use crate::dem::preflight::{Preflight, SizeClasses, preflight};
-use crate::dem::scratch::{Flags, Partial, RollItem, RollLists, chunked, slots};
+use crate::dem::scratch::{Flags, Partial, RollLists, chunked, slots};
 use crate::dem::state::{ContactState, State};
 use crate::dem::team::wait_for;
 use crate::dem::timers::Phase;
@@ -43,20 +50,7 @@ use crate::dem::walls::{NearWalls, Wall};
 use crate::math::{Real, Vec2};
 use crate::shared::SharedMut;
 use std::sync::atomic::Ordering::Release;
-use std::time::Instant;
 
-/// [`World::run`] steps a world with a thread team while the team is clearly faster than
-/// the world alone: it times [`TEAM_PROBE`] steps alone (the reference, taken again after
-/// [`TEAM_REFRESH`] steps), then the team in blocks of [`TEAM_BLOCK`] steps; a team
-/// slower than 0.9 × the reference rests for [`TEAM_REST`] steps (doubling with every
-/// further loss, up to 4 × TEAM_REST) and is tried again. Results are the same either way.
-pub const TEAM_PROBE: u64 = 128;
-/// See [`TEAM_PROBE`].
-pub const TEAM_BLOCK: u64 = 1024;
-/// See [`TEAM_PROBE`].
-pub const TEAM_REFRESH: u64 = 32768;
-/// See [`TEAM_PROBE`].
-pub const TEAM_REST: u64 = 256;
 impl World {
     /// A world from a state, walls and parameters. Validates the parameters.
     pub fn new(params: DemParams, state: State, walls: Vec<Wall>, periodic_x: Option<Real>) -> Result<Self, DemError> {
@@ -123,37 +117,6 @@ impl World {
         w.rebuild();
         w.e0 = w.energies().total();
         Ok(w)
-    }
-
-    /// Call after appending grains or changing masses (histories of existing grains are
-    /// kept; after removing grains build a new `World` instead).
-    pub fn resize_scratch(&mut self) {
-        let n = self.state.len();
-        for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
-            v.clear();
-            v.resize(n, 0.0);
-        }
-        self.roll.witems.clear();
-        self.roll.witems.resize(MAX_WALLS * n, RollItem::default());
-        self.roll.wcount.clear();
-        self.roll.wcount.resize(MAX_WALLS * n.div_ceil(GRAIN_CHUNK), 0);
-        // keep wall histories of grains that still exist (grains appended at the end)
-        let old_n = self.wall_hist.len() / MAX_WALLS;
-        let mut wh = vec![ContactState::default(); MAX_WALLS * n];
-        for wi in 0..MAX_WALLS {
-            for a in 0..old_n.min(n) {
-                wh[wi * n + a] = self.wall_hist[wi * old_n + a];
-            }
-        }
-        self.wall_hist = wh;
-        self.wlive.clear();
-        self.wlive.resize(MAX_WALLS * n, 1);
-        self.near.invalidate();
-        let (z, kn) = (self.params.wall.damping_ratio(), self.params.wall.kn);
-        self.wall_cn = self.state.m.iter().map(|&m| normal_damping(z, m, kn)).collect();
-        // the list is rebuilt (positions changed); pair histories are kept by key
-        self.nl.x0.clear();
-        self.forces_valid = false;
     }
 
     /// Rebuild the neighbour list now.
@@ -274,133 +237,6 @@ impl World {
         if n > 0.0 { self.run(n as u64) } else { Ok(()) }
     }
 
-    fn run_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
-        // The hot loops index the grain arrays with the list's indices unchecked
-        // (`crate::shared`):
-        // a state edited without `resize_scratch` (or resized without a rebuild) gets its
-        // scratch and list brought up to date first. The library's own callers never
-        // reach these branches (they resize and rebuild themselves), so no result moves.
-        let ng = self.state.len();
-        if self.fx.len() != ng || self.wall_cn.len() != ng {
-            self.resize_scratch();
-        }
-        if self.nl.x0.len() != ng {
-            self.rebuild();
-        }
-        if self.walls != self.walls_seen {
-            // a wall was edited between runs (gate removed, wall shifted): the stored forces
-            // are stale for the first half kick
-            self.forces_valid = false;
-        }
-        if !self.forces_valid && self.nl.needs_rebuild(&self.state) {
-            // grains moved by hand since the last build (`invalidate_forces`): the pair
-            // and near-wall lists assume no grain is more than skin/2 from its build
-            // position
-            self.rebuild();
-        }
-        if !self.forces_valid {
-            self.compute_forces::<R, IMP, L, false>(0.0);
-            self.forces_valid = true;
-        }
-        let team = ng >= self.team_min_grains && rayon::current_num_threads() > 1;
-        let mut res = Ok(());
-        let mut left = n;
-        while left > 0 && res.is_ok() {
-            if !(team && self.team_probe) {
-                res = crate::dem::team::with_team(team, || self.steps_with::<R, IMP, L>(left));
-                break;
-            }
-            let fresh = self.solo_ref.is_some_and(|(_, at)| self.steps < at + TEAM_REFRESH);
-            if !fresh && left >= 2 * TEAM_PROBE {
-                // the reference: TEAM_PROBE steps alone, then try the team
-                let t0 = Instant::now();
-                res = self.steps_with::<R, IMP, L>(TEAM_PROBE);
-                self.solo_ref = Some((t0.elapsed().as_secs_f64() / TEAM_PROBE as f64, self.steps));
-                left -= TEAM_PROBE;
-            } else if self.solo_ref.is_some() && self.steps >= self.team_until {
-                // with the team, in timed blocks, while it stays clearly faster than alone
-                let mut ran = 0;
-                res = crate::dem::team::with_team(true, || self.team_blocks::<R, IMP, L>(left, &mut ran));
-                left -= ran;
-            } else {
-                // alone until the team's next try (timed: the reference for it; steps alone
-                // are measured whenever they run)
-                let k = if self.solo_ref.is_some() {
-                    left.min(self.team_until - self.steps)
-                } else {
-                    left
-                };
-                let t0 = Instant::now();
-                res = self.steps_with::<R, IMP, L>(k);
-                if k >= TEAM_PROBE {
-                    self.solo_ref = Some((t0.elapsed().as_secs_f64() / k as f64, self.steps));
-                }
-                left -= k;
-            }
-        }
-        self.walls_seen.clone_from(&self.walls);
-        res
-    }
-
-    /// Up to `left` steps with the team (`World::run_with`), in blocks timed against the
-    /// reference alone (`solo_ref`): the first after TEAM_PROBE / 4 steps that wake the
-    /// helpers and fill their caches, then TEAM_BLOCK steps each. Stops when a block is
-    /// not clearly faster than the reference (the other core got busy, or the team does
-    /// not pay on this scene: the team rests, and is tried again after TEAM_REST steps,
-    /// doubling with every further loss up to 4 × TEAM_REST) or when the reference is
-    /// older than TEAM_REFRESH steps. `ran`: steps done.
-    fn team_blocks<const R: bool, const IMP: bool, const L: bool>(
-        &mut self,
-        left: u64,
-        ran: &mut u64,
-    ) -> Result<(), DemError> {
-        let warm = (TEAM_PROBE / 4).min(left);
-        self.steps_with::<R, IMP, L>(warm)?;
-        *ran = warm;
-        let mut block = TEAM_PROBE - warm;
-        while *ran < left {
-            let k = block.min(left - *ran);
-            let t0 = Instant::now();
-            self.steps_with::<R, IMP, L>(k)?;
-            *ran += k;
-            let (solo, at) = self.solo_ref.unwrap_or((f64::INFINITY, self.steps));
-            // a short block is noisy: the team must be clearly faster
-            if k >= TEAM_PROBE / 2 && !(t0.elapsed().as_secs_f64() / (k as f64) < 0.9 * solo) {
-                self.team_lost = (self.team_lost + 1).min(3);
-                self.team_until = self.steps + (TEAM_REST << (self.team_lost - 1));
-                crate::dem::team::dismiss();
-                return Ok(());
-            }
-            self.team_lost = 0;
-            if self.steps >= at + TEAM_REFRESH {
-                break;
-            }
-            block = TEAM_BLOCK;
-        }
-        Ok(())
-    }
-
-    /// `n` steps. On a thread team, two steps of this call are *joined* (except where the
-    /// watchdog looks at the state between them): the grain pass of the first does the
-    /// second's translational kick and drift on the grains it has just kicked (in cache,
-    /// on the thread that computed their forces), and the spin work between them — this
-    /// step's second dashpot sweep, the next one's spin kick and first sweep, serial —
-    /// runs at the next step's start on one thread while the others filter its pairs
-    /// (`World::staged_forces`). Every grain's arithmetic and every sum is that of the
-    /// separate passes (`integrate_second_half`, `integrate_first_half`, `compute_contacts`),
-    /// so results are bit-identical to them; on one thread the separate passes are as
-    /// fast.
-    fn steps_with<const R: bool, const IMP: bool, const L: bool>(&mut self, n: u64) -> Result<(), DemError> {
-        let boundary = n >= 2 && crate::dem::team::active() && self.join_ok::<IMP>();
-        let wd = self.params.watchdog.every;
-        let mut first = None;
-        for k in 0..n {
-            let join = boundary && k + 1 < n && !(wd > 0 && (self.steps + 1) % wd == 0);
-            first = self.step_with::<R, IMP, L>(first, join)?;
-        }
-        Ok(())
-    }
-
     /// One step; `first`: the previous step joined this one (see [`World::steps_with`]):
     /// it did the translational first half of this one (with whether the list must be
     /// rebuilt) and left its spin work to this step's start; `join`: do the same for the
@@ -500,7 +336,7 @@ impl World {
     /// chunk order, in the order of the separate passes (`integrate_second_half`,
     /// `integrate_first_half`, `compute_forces`): results are bit-identical to them.
     /// Returns whether the next step's drift moved a grain past the skin.
-    fn staged_forces<const R: bool, const IMP: bool, const L: bool>(
+    pub(super) fn staged_forces<const R: bool, const IMP: bool, const L: bool>(
         &mut self,
         dt: Real,
         spin: bool,
@@ -818,74 +654,6 @@ impl World {
                 dx * dx + dy * dy < rs * rs
             })
             .count()
-    }
-
-    /// All listed grain pairs with their history (zero for pairs not in contact).
-    pub fn contact_histories(&self) -> impl Iterator<Item = (crate::dem::state::ContactKey, ContactState)> + '_ {
-        (0..self.nl.len()).map(|k| {
-            (
-                crate::dem::state::ContactKey {
-                    i: self.nl.pi[k],
-                    j: self.nl.pj[k],
-                },
-                self.nl.hist[k],
-            )
-        })
-    }
-
-    /// Contact history between grains a and b, if listed.
-    pub fn contact_history(&self, a: u32, b: u32) -> Option<ContactState> {
-        self.nl.history(a, b)
-    }
-
-    /// Contact histories worth keeping across a restart: grain pairs and grain–wall
-    /// contacts whose springs hold something.
-    pub fn saved_histories(&self) -> SavedHistories {
-        let n = self.state.len();
-        let pairs = (0..self.nl.len())
-            .filter(|&k| self.nl.hist[k] != ContactState::default())
-            .map(|k| (self.nl.pi[k], self.nl.pj[k], self.nl.hist[k]))
-            .collect();
-        let walls = (0..self.walls.len())
-            .flat_map(|wi| (0..n).map(move |a| (wi, a)))
-            .filter(|&(wi, a)| self.wall_hist[wi * n + a] != ContactState::default())
-            .map(|(wi, a)| (wi as u32, a as u32, self.wall_hist[wi * n + a]))
-            .collect();
-        SavedHistories { pairs, walls }
-    }
-
-    /// Restore contact histories saved by [`World::saved_histories`] on the same grains
-    /// (a restarted column keeps its settled tangential and rolling springs). Pairs that
-    /// are not listed now (moved apart) and walls that do not exist are skipped; returns
-    /// how many histories were restored.
-    pub fn restore_histories(&mut self, h: &SavedHistories) -> usize {
-        let n = self.state.len();
-        let mut restored = 0;
-        for &(a, b, st) in &h.pairs {
-            let key = crate::dem::state::ContactKey::new(a, b);
-            let (Some(&lo), Some(&hi)) = (
-                self.nl.istart.get(key.i as usize),
-                self.nl.istart.get(key.i as usize + 1),
-            ) else {
-                continue;
-            };
-            if let Some(k) = (lo as usize..hi as usize).find(|&k| self.nl.pj[k] == key.j) {
-                self.nl.hist[k] = st;
-                restored += 1;
-            }
-        }
-        for &(wi, a, st) in &h.walls {
-            let (wi, a) = (wi as usize, a as usize);
-            if wi < self.walls.len() && a < n {
-                self.wall_hist[wi * n + a] = st;
-                restored += 1;
-            }
-        }
-        self.all_pairs_live();
-        self.wlive.fill(1);
-        self.near.invalidate();
-        self.forces_valid = false;
-        restored
     }
 
     /// Total contact + gravity force on grain i from the last evaluation [N/m].
