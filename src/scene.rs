@@ -304,7 +304,7 @@ pub fn stage_entry(id: &str, kind: &str, params: serde_yaml::Value, inputs: Opti
 
 /// Validate the pipeline generated from a scene file (problems reported against the scene
 /// file's lines), check that `out` is usable, and only then write it and run. Shared by
-/// every engine's `simulate` (DEM columns here, CD scenes in `stages::cd_stages`).
+/// every engine's `simulate` (DEM columns here, CD and MPM scenes in `scene_cd.rs`, `scene_mpm.rs`).
 pub fn run_generated(scene: &Path, text: &str, generated: &serde_yaml::Value, out: &Path, quiet: bool) -> i32 {
     let doc = serde_yaml::to_string(generated).unwrap_or_default();
     let pfile = out.join("pipeline.yaml");

@@ -931,7 +931,7 @@ fn scene_without_psd_n_samples_enough_grains_for_its_column() {
             serde_json::from_value(p.get("psd").unwrap().params.clone()).unwrap();
         let area = p.get("column").unwrap().params["area_m2"].as_f64().unwrap();
         let d = psd.grading().sample(psd.n, psd.seed);
-        // The prep's count (src/stages/dem_stages.rs, `run_prep`): 1.15 × 0.85 A / mean area.
+        // The prep's count (src/stages/column/dem_prep.rs, `run_prep`): 1.15 × 0.85 A / mean area.
         let mean_area = d.iter().map(|d| std::f64::consts::PI * 0.25 * d * d).sum::<f64>() / d.len() as f64;
         let k = (1.15 * area * 0.85 / mean_area).ceil() as usize;
         assert!(
