@@ -62,7 +62,10 @@ pub fn enabled(id: &str, kind: &str, p: &Value) -> Option<Enabled> {
         id: id.to_string(),
         ..Default::default()
     };
-    if p.get("dem").is_some() && kind.starts_with("dem-") {
+    // A study kind names its method (`method: dem`); a method's own kinds carry its prefix.
+    let method = p.get("method").and_then(Value::as_str);
+    let is = |m: &str| method.map_or(kind.starts_with(&format!("{m}-")), |x| x == m);
+    if p.get("dem").is_some() && is("dem") {
         e.engine = "dem";
         if b(p, "/dem/rolling/enabled").unwrap_or(false) {
             e.rolling = Some(f(p, "/dem/rolling/cr").unwrap_or(0.0) > 0.0);
@@ -70,14 +73,14 @@ pub fn enabled(id: &str, kind: &str, p: &Value) -> Option<Enabled> {
         e.ledger = b(p, "/dem/ledger").unwrap_or(false);
         e.wall_friction = f(p, "/dem/wall/friction").unwrap_or(0.0) > 0.0;
         e.snapshots = n(p, "/run/snapshots");
-    } else if p.get("mpm").is_some() && kind.starts_with("mpm-") {
+    } else if p.get("mpm").is_some() && is("mpm") {
         e.engine = "mpm";
         let model = p.pointer("/mpm/material/model");
         e.mu_i = model.is_some_and(|m| m.get("mu_i_linear").is_some() || m.get("mu_i_jop").is_some());
         e.wall_friction = f(p, "/mpm/wall_friction").unwrap_or(0.0) > 0.0;
         e.ledger = true; // the MPM energies are always computed (watchdog)
         e.snapshots = n(p, "/run/snapshot_tau");
-    } else if p.get("cd").is_some() && kind.starts_with("cd-") {
+    } else if p.get("cd").is_some() && is("cd") {
         e.engine = "cd";
         e.rolling = (f(p, "/cd/rolling_friction").unwrap_or(0.0) > 0.0).then_some(false);
         e.wall_friction = f(p, "/cd/wall_friction").unwrap_or(0.0) > 0.0;

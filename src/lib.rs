@@ -14,6 +14,7 @@ pub mod cd;
 pub mod claims;
 pub mod cli;
 pub mod dem;
+pub mod engines;
 pub mod fit;
 pub mod math;
 pub mod mpm;

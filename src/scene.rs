@@ -1,7 +1,7 @@
 //! `granrepro simulate SCENE.yaml --out DIR`: one ad-hoc DEM column scene outside the
 //! pipeline. The scene file uses the same parameter schemas as `stages/` (PSD, DEM solver,
 //! column preparation, collapse run control); it is validated with file, line and key,
-//! then run as a three-stage pipeline (psd → dem-column-prep → dem-collapse) whose cache
+//! then run as a three-stage pipeline (psd → dem-column-prep → column-collapse) whose cache
 //! and reports live under DIR — so the outputs are the same tables, figures and VTK files.
 //! Problems are reported against the scene file's keys and lines; nothing is written
 //! until the scene is valid, and DIR must be new, empty, or an earlier simulate output
@@ -202,6 +202,7 @@ pub fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
         m.insert("dem".into(), nonnull(&sf.dem));
         m.insert("stiffness_factor".into(), sf.stiffness_factor.into());
     }
+    coll.insert("method".into(), "dem".into());
     coll.insert("dem".into(), nonnull(&sf.dem));
     coll.insert("stiffness_factor".into(), sf.stiffness_factor.into());
     coll.insert("run".into(), nonnull(&sf.run));
@@ -212,7 +213,7 @@ pub fn scene_pipeline(scene: &Path, sf: &SceneFile) -> serde_yaml::Value {
         mk("column", "dem-column-prep", prep, Some(("psd", "psd"))),
         mk(
             "collapse",
-            "dem-collapse",
+            "column-collapse",
             serde_yaml::Value::Mapping(coll),
             Some(("column", "column")),
         ),

@@ -1,5 +1,5 @@
 //! `granrepro simulate SCENE.yaml --out DIR` for a CD scene (`engine: cd`): a shear test
-//! (psd → cd-shear → cd-shear-figure) or a pile work-precision set (one cd-work-precision
+//! (psd → cd-shear → cd-shear-figure) or a pile work-precision set (one work-precision
 //! stage), written as a small pipeline under DIR and run there like the DEM and MPM scenes
 //! (same tables, figures, claims and exit codes).
 
@@ -41,7 +41,7 @@ pub fn is_cd_scene(path: &std::path::Path) -> bool {
 }
 
 /// `granrepro simulate` for a CD scene: written as a small pipeline under `out` (psd →
-/// cd-shear → cd-shear-figure, or one cd-work-precision stage) and run there, so the
+/// cd-shear → cd-shear-figure, or one work-precision stage, method cd) and run there, so the
 /// outputs are the stages' tables, figures and claims. Exit code 0 ok, 1 failed, 2 bad input.
 pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) -> i32 {
     let nonnull = |v: &serde_yaml::Value| {
@@ -102,8 +102,9 @@ pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) 
                     return 2;
                 }
             };
+            pl.insert("method".into(), "cd".into());
             pl.insert("cd".into(), nonnull(&sf.cd));
-            vec![mk("pile", "cd-work-precision", serde_yaml::Value::Mapping(pl), None)]
+            vec![mk("pile", "work-precision", serde_yaml::Value::Mapping(pl), None)]
         }
         other => {
             eprintln!(

@@ -1,5 +1,5 @@
 //! `granrepro simulate SCENE.yaml --out DIR` for an MPM column (`engine: mpm`): one
-//! `mpm-collapse` stage with the scene's solver, material and geometry (table 4.3 values
+//! `column-collapse` stage (`method: mpm`) with the scene's solver, material and geometry (table 4.3 values
 //! unless given; no DEM calibration inputs), validated — CFL pre-flight and grid
 //! containment included — before anything is written, then run under DIR like the DEM and
 //! CD scenes (same tables, figures, claims and exit codes).
@@ -23,7 +23,7 @@ pub struct MpmSceneFile {
     /// Column area [m²].
     #[serde(default)]
     pub area_m2: Option<f64>,
-    /// Run control (schema of the `mpm-collapse` kind's `run`).
+    /// Run control (schema of the `column-collapse` kind's `run`, method mpm).
     #[serde(default)]
     pub run: serde_yaml::Value,
 }
@@ -88,9 +88,10 @@ pub fn simulate_mpm(scene: &Path, out: &Path, quiet: bool) -> i32 {
         m.insert("run".into(), sf.run.clone());
     }
     m.insert("use_dem_calibration".into(), false.into());
+    m.insert("method".into(), "mpm".into());
     let stages = vec![crate::scene::stage_entry(
         "collapse",
-        "mpm-collapse",
+        "column-collapse",
         serde_yaml::Value::Mapping(m),
         None,
     )];

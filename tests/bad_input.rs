@@ -198,6 +198,35 @@ fn corpus() -> Vec<Case> {
             &["pipeline.yaml:1", "version"]
         ),
         case!("missing stages", "version: 1\n", RUN, &[PY, "stages"]),
+        // -- a study kind's method
+        case!(
+            "study without its method",
+            "version: 1\nstages:\n  - id: c\n    kind: work-precision\n    params: { variants: [] }\n",
+            RUN,
+            &[PY, "stages[c].params.method", "dem | cd | mpm"]
+        ),
+        case!(
+            "method the study does not have",
+            "version: 1\nstages:\n  - id: c\n    kind: column-collapse\n    params: { method: cd }\n",
+            RUN,
+            &[
+                PY, "stages[c].params.method", "`cd` is not a method of this study", "dem | mpm"
+            ]
+        ),
+        case!(
+            "a method's own key under another method",
+            "version: 1\nstages:\n  - id: c\n    kind: column-collapse\n    params: { method: mpm, stiffness_factor: 0.01 }\n",
+            RUN,
+            &[PY, "stages[c].params.stiffness_factor"]
+        ),
+        case!(
+            "pile run with another method's block",
+            "version: 1\nstages:\n  - id: c\n    kind: pile-run\n    params: { method: cd, energies_mgd: [10], mpm_friction: 0.4 }\n",
+            RUN,
+            &[
+                PY, "stages[c].params.mpm_friction", "a parameter of method mpm", "the keys of method cd: cd"
+            ]
+        ),
         case!("stages not a list", "version: 1\nstages: 3\n", RUN, &[PY, "stages"]),
         case!(
             "yaml syntax",
@@ -946,14 +975,14 @@ fn scene_without_psd_n_samples_enough_grains_for_its_column() {
 /// or without the key. Each case: pipeline, stage file, what stderr must contain.
 #[test]
 fn loader_property_findings_name_the_file_and_key() {
-    const W: &str = "version: 1\nstages:\n  - id: w\n    kind: cd-work-precision\n    params_file: stages/w.yaml\n";
+    const W: &str = "version: 1\nstages:\n  - id: w\n    kind: work-precision\n    params_file: stages/w.yaml\n";
     const P: &str = "version: 1\nstages:\n  - id: p\n    kind: psd\n    params_file: stages/p.yaml\n";
     let cases: &[(&str, &str, &str, &[&str])] = &[
         // a problem inside a list of a stage file was blamed on pipeline.yaml
         (
             "list item",
             W,
-            "variants:\n  - { dt: big }\n  - { dt: 1.0e-4, tolerance: 1.0e-4 }\n",
+            "method: cd\nvariants:\n  - { dt: big }\n  - { dt: 1.0e-4, tolerance: 1.0e-4 }\n",
             &["stages/w.yaml:", "variants[0].dt"],
         ),
         // a stage file's `profiles.quick` that is not a mapping replaced all params: "params.:"
@@ -976,9 +1005,7 @@ fn loader_property_findings_name_the_file_and_key() {
             "version: 1\nstages:\n  - id: p\n    kind: psd\n  - id: f\n    kind: psd-figure\n    inputs: { psd: {} }\n",
             "",
             &[
-                "pipeline.yaml:7",
-                "stages[f].inputs.psd",
-                "input `psd` must name a stage id",
+                "pipeline.yaml:7", "stages[f].inputs.psd", "input `psd` must name a stage id",
             ],
         ),
         // a missing input did not say which role

@@ -263,13 +263,7 @@ fn results_are_identical_whatever_the_job_count() {
     )
     .unwrap();
     for f in [
-        "psd-a.parquet",
-        "psd-a.csv",
-        "fig-a.csv",
-        "fig-a.svg",
-        "tab.csv",
-        "laws.parquet",
-        "fig-a.json",
+        "psd-a.parquet", "psd-a.csv", "fig-a.csv", "fig-a.svg", "tab.csv", "laws.parquet", "fig-a.json",
     ] {
         let a = std::fs::read(t1.path().join("reports/quick").join(f)).unwrap();
         let b = std::fs::read(t2.path().join("reports/quick").join(f)).unwrap();

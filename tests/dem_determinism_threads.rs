@@ -50,12 +50,7 @@ fn run_scene(s: &State, probe: bool) -> (Vec<u64>, Vec<u64>) {
         }
         let l = w.ledger;
         let led = [
-            l.normal_damping,
-            l.tangential,
-            l.rolling,
-            l.wall_normal,
-            l.wall_tangential,
-            l.external_work,
+            l.normal_damping, l.tangential, l.rolling, l.wall_normal, l.wall_tangential, l.external_work,
         ]
         .iter()
         .map(|x| x.to_bits())

@@ -21,10 +21,7 @@ fn chapter_step_is_audited_and_default_accepted() {
     eprintln!("{table}");
     // translational collision, wall, multi-contact, tangential and rolling rows present
     for key in [
-        "collision grain-grain (d_min pair)",
-        "collision grain-wall",
-        "multi-contact normal",
-        "tangential pair",
+        "collision grain-grain (d_min pair)", "collision grain-wall", "multi-contact normal", "tangential pair",
         "rolling dashpot relaxation",
     ] {
         assert!(table.contains(key), "row {key} missing");

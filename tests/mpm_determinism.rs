@@ -20,16 +20,7 @@ fn fingerprint(scheme: Scheme, model: Model, threads: usize) -> Vec<u64> {
         let mut out = Vec::new();
         for q in &col.state.points {
             for v in [
-                q.x.x,
-                q.x.y,
-                q.v.x,
-                q.v.y,
-                q.stress.xx,
-                q.stress.yy,
-                q.stress.xy,
-                q.stress.zz,
-                q.vol,
-                q.eps_p,
+                q.x.x, q.x.y, q.v.x, q.v.y, q.stress.xx, q.stress.yy, q.stress.xy, q.stress.zz, q.vol, q.eps_p,
                 q.work_p,
             ] {
                 out.push(v.to_bits());

@@ -47,11 +47,7 @@ fn validation_lists_every_bad_value() {
     p.flip = 2.0;
     let keys: Vec<String> = p.validate().into_iter().map(|i| i.key).collect();
     for k in [
-        "material.poisson",
-        "material.young_pa",
-        "material.friction_deg",
-        "ppc",
-        "flip",
+        "material.poisson", "material.young_pa", "material.friction_deg", "ppc", "flip",
     ] {
         assert!(keys.iter().any(|x| x == k), "missing issue for {k}: {keys:?}");
     }

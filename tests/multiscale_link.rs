@@ -34,14 +34,7 @@ fn shear_friction_reaches_exactly_the_mpm_stages_that_read_it() {
     let got = changed(&["fig4-03.dem.grain.friction=0.6"]);
     // the shear test itself, the tables and every MPM stage that reads φ from it …
     for id in [
-        "fig4-03",
-        "tab4-01",
-        "tab4-03",
-        "fig4-04",
-        "col-mpm-a0.4",
-        "col-mpm-a10",
-        "col-mpm-mui-a0.4",
-        "wp-mpm-column",
+        "fig4-03", "tab4-01", "tab4-03", "fig4-04", "col-mpm-a0.4", "col-mpm-a10", "col-mpm-mui-a0.4", "wp-mpm-column",
     ] {
         assert!(got.contains(id), "{id} should change: {got:?}");
     }
@@ -91,25 +84,13 @@ fn the_joint_calibration_reaches_every_dem_scene_through_the_dag() {
     // the prepared columns are upstream and stay cached.
     let got = changed(&["calib-dem.runout_tolerance=0.2"]);
     for id in [
-        "calib-dem",
-        "fig4-03",
-        "compress-dem",
-        "col-dem-a0.4",
-        "col-dem-a6",
-        "col-dem-no-rolling-damper",
-        "wp-dem-column",
-        "fig4-04",
-        "col-mpm-a0.4",
-        "tab4-03",
+        "calib-dem", "fig4-03", "compress-dem", "col-dem-a0.4", "col-dem-a6", "col-dem-no-rolling-damper",
+        "wp-dem-column", "fig4-04", "col-mpm-a0.4", "tab4-03",
     ] {
         assert!(got.contains(id), "{id} not reached: {got:?}");
     }
     for id in [
-        "calib-point-mu_r0.1",
-        "calib-point-capped-mu_r0.1",
-        "col-dem-prep-a0.4",
-        "col-dem-prep-a6",
-        "psd-col",
+        "calib-point-mu_r0.1", "calib-point-capped-mu_r0.1", "col-dem-prep-a0.4", "col-dem-prep-a6", "psd-col",
         "fig4-23",
     ] {
         assert!(!got.contains(id), "{id} should stay cached: {got:?}");

@@ -186,7 +186,11 @@ fn a_failed_stage_shows_nothing_stale() {
     let (code, out, err) = t.cli(&["run", "--stage", "fit"]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("fit: "), "headline scalars expected: {out}");
-    let (code, out, err) = t.cli(&["run", "--stage", "fit", "--set", "fit.y=no_such_column"]);
+    // A name the input does not publish is refused at load (exit 2) since kinds declare
+    // their outputs; a run-time failure: no point left to fit.
+    let (code, _, err) = t.cli(&["run", "--stage", "fit", "--set", "fit.y=no_such_column"]);
+    assert_eq!(code, 2, "{err}");
+    let (code, out, err) = t.cli(&["run", "--stage", "fit", "--set", "fit.x_min=1e9"]);
     assert_eq!(code, 1, "{err}");
     assert!(
         !out.contains("fit: ") && !out.contains("claim"),
@@ -247,11 +251,7 @@ fn reports_state_and_cache_are_world_readable() {
     };
     let q = t.path().join("reports/quick");
     for f in [
-        "fig-a.json",
-        "fig-a.record.json",
-        "fig-a.svg",
-        "psd-a.csv",
-        "index.html",
+        "fig-a.json", "fig-a.record.json", "fig-a.svg", "psd-a.csv", "index.html",
     ] {
         assert_eq!(mode(&q.join(f)), 0o644, "{f}");
     }

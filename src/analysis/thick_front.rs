@@ -52,11 +52,8 @@ impl ThickRule {
     }
     /// Problem with the value, if any: (key, value, what is allowed).
     pub fn issue(&self) -> Option<(&'static str, f64, &'static str)> {
-        (!(self.threshold_d.is_finite() && self.threshold_d > 0.0 && self.threshold_d <= 100.0)).then_some((
-            "front.threshold_d",
-            self.threshold_d,
-            "in (0, 100] [d̄]",
-        ))
+        (!(self.threshold_d.is_finite() && self.threshold_d > 0.0 && self.threshold_d <= 100.0))
+            .then_some(("front.threshold_d", self.threshold_d, "in (0, 100] [d̄]"))
     }
     /// The front of `body` with mean grain diameter `d` [m].
     pub fn front(&self, body: &Body, d: f64) -> Front {

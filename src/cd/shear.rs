@@ -383,14 +383,7 @@ pub fn shear_test(radii: &[Real], params: &CdParams, sp: &ShearCdParams) -> Resu
     let v_cap = 0.5 * p.alert_fraction * d_min / (2.0 * p.dt);
     let tb = cell.top_body;
     set_plate_mass(
-        &mut cell.world,
-        tb,
-        cell.m_top,
-        p.dt,
-        sp.pressure,
-        cell.lx,
-        sp.plate_drift,
-        d_min,
+        &mut cell.world, tb, cell.m_top, p.dt, sp.pressure, cell.lx, sp.plate_drift, d_min,
     );
     compact(&mut cell, sp.pressure, v_cap.min(v_floor), sp.compaction_tp * t_p)?;
     let compaction_packing = sample_packing(&cell);

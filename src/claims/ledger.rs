@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use crate::pipeline::diag::{Diagnostic, locate};
+use crate::stages::kind::{Item, Kind as StageKind};
 
 /// The ledger's file, relative to the directory holding pipeline.yaml.
 pub const LEDGER_FILE: &str = "stages/ledger.yaml";
@@ -384,4 +385,74 @@ pub fn check(root: &Path) -> Vec<Diagnostic> {
         Ok(None) => vec![],
         Err(d) => d,
     }
+}
+
+/// Check what each row reads against what its stage's kind declares it publishes
+/// (`stages/kind.rs`): a `measure.measurement` the kind never measures, or a
+/// `measure.scalar` / `measure.se` it never publishes, is refused at load. `kind_of` gives
+/// a stage id's kind in the profile being loaded; a stage it does not know is *not run*,
+/// not refused (see [`validate`]).
+pub fn check_outputs(root: &Path, kind_of: &dyn Fn(&str) -> Option<StageKind>) -> Vec<Diagnostic> {
+    let Ok(Some((l, file, text))) = read(root) else {
+        return vec![];
+    };
+    let mut out = Vec::new();
+    for (i, r) in l.claims.iter().enumerate() {
+        let mut stack: Vec<(String, &Measure)> = vec![("measure".into(), &r.measure)];
+        while let Some((at, m)) = stack.pop() {
+            // (key, name, a measurement id rather than a scalar)
+            let mut wants: Vec<(&str, &String, bool)> = Vec::new();
+            if let Some(id) = &m.measurement {
+                wants.push(("measurement", id, true));
+            }
+            if let Some(s) = &m.scalar {
+                wants.push(("scalar", s, false));
+            }
+            if let Some(s) = &m.se {
+                wants.push(("se", s, false));
+            }
+            let stages = std::iter::once(&m.stage).chain(m.members.iter());
+            let mut seen: Vec<&str> = Vec::new();
+            for st in stages {
+                let Some(kind) = kind_of(st) else { continue };
+                if seen.contains(&kind.name) {
+                    continue;
+                }
+                seen.push(kind.name);
+                for &(k, name, is_measurement) in &wants {
+                    let refused = if !is_measurement {
+                        crate::pipeline::reads::refuse(&Item::Scalar(name.clone()), &kind.outputs)
+                    } else if kind.outputs.has_measurement(name) {
+                        None
+                    } else {
+                        Some((
+                            format!("measurement `{name}`"),
+                            format!(
+                                "measurements of `{}`: {}",
+                                kind.name,
+                                kind.outputs.measurements.join(", ")
+                            ),
+                        ))
+                    };
+                    if let Some((what, help)) = refused {
+                        out.push(diag(
+                            &file,
+                            &text,
+                            &[r.id.as_str(), k],
+                            format!("claims[{i}] ({}).{at}.{k}", r.id),
+                            format!("{what}, which kind `{}` (stage `{st}`) does not publish", kind.name),
+                            &help,
+                        ));
+                    }
+                }
+            }
+            if let Some(x) = &m.minus {
+                stack.push((format!("{at}.minus"), x));
+            }
+            if let Some(x) = &m.over {
+                stack.push((format!("{at}.over"), x));
+            }
+        }
+    }
+    out
 }

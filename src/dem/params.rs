@@ -120,11 +120,7 @@ impl ContactParams {
         c.plausible("friction", self.friction, 0.0, 10.0, "Coulomb coefficient");
         c.in_open_closed("restitution", self.restitution, 0.0, 1.0);
         c.plausible(
-            "tangential_damping_ratio",
-            self.tangential_damping_ratio,
-            0.0,
-            10.0,
-            "fraction of C_n",
+            "tangential_damping_ratio", self.tangential_damping_ratio, 0.0, 10.0, "fraction of C_n",
         );
     }
 }
@@ -271,6 +267,13 @@ impl Default for DemParams {
 }
 
 impl DemParams {
+    /// Steps per simulated second with the contact stiffnesses softened by
+    /// `stiffness_factor` (the stable step scales as 1/√k): the rate the cost models of
+    /// `plan --estimate` scale by.
+    pub fn steps_per_second(&self, stiffness_factor: Real) -> Real {
+        stiffness_factor.sqrt() / self.dt
+    }
+
     /// "Quick" profile: k_n, k_t, k_r softened by `factor` (< 1) and Δt divided by
     /// √factor, so every time scale of docs/definitions.md c.1–c.2 keeps the same
     /// steps-per-period ratio. k_r is scaled with k_n to keep the rolling/translational
@@ -302,26 +305,15 @@ impl DemParams {
             c.plausible("rolling.kr", self.rolling.kr, 1e-15, 1e9, "rolling stiffness [N·m/rad]");
             c.plausible("rolling.cr", self.rolling.cr, 0.0, 1e6, "rolling dashpot [N·m·s/rad]");
             c.plausible(
-                "rolling.mu_r",
-                self.rolling.mu_r,
-                0.0,
-                10.0,
-                "rolling friction coefficient",
+                "rolling.mu_r", self.rolling.mu_r, 0.0, 10.0, "rolling friction coefficient",
             );
         }
         c.in_open("skin_fraction", self.skin_fraction, 0.0, 2.0);
         c.in_open(
-            "watchdog.max_overlap_fraction",
-            self.watchdog.max_overlap_fraction,
-            0.0,
-            1.0,
+            "watchdog.max_overlap_fraction", self.watchdog.max_overlap_fraction, 0.0, 1.0,
         );
         c.plausible(
-            "watchdog.energy_rise_fraction",
-            self.watchdog.energy_rise_fraction,
-            0.0,
-            1e3,
-            "fraction of E_0",
+            "watchdog.energy_rise_fraction", self.watchdog.energy_rise_fraction, 0.0, 1e3, "fraction of E_0",
         );
         c.issues
     }

@@ -46,6 +46,14 @@ pub struct ShearParams {
     pub seed: u64,
 }
 
+impl ShearParams {
+    /// The test's simulated time in relative units (for `plan --estimate`): strain × Σ
+    /// P^-1/2 over the pressures, since at a fixed inertial number the shear rate ∝ √P.
+    pub fn relative_duration(&self) -> Real {
+        self.strain * self.pressures.iter().map(|p| p.powf(-0.5)).sum::<Real>()
+    }
+}
+
 impl Default for ShearParams {
     fn default() -> Self {
         Self {

@@ -349,25 +349,13 @@ impl MpmParams {
         );
         c.plausible("material.cohesion_pa", m.cohesion_pa, 0.0, 1e9, "cohesion [Pa]");
         c.plausible(
-            "material.tension_cutoff_pa",
-            m.tension_cutoff_pa,
-            0.0,
-            1e9,
-            "tension cut-off [Pa]",
+            "material.tension_cutoff_pa", m.tension_cutoff_pa, 0.0, 1e9, "tension cut-off [Pa]",
         );
         c.plausible(
-            "material.grain_diameter",
-            m.grain_diameter,
-            1e-6,
-            1.0,
-            "grain diameter [m]",
+            "material.grain_diameter", m.grain_diameter, 1e-6, 1.0, "grain diameter [m]",
         );
         c.plausible(
-            "material.grain_density",
-            m.grain_density,
-            100.0,
-            2.5e4,
-            "grain density [kg/m³]",
+            "material.grain_density", m.grain_density, 100.0, 2.5e4, "grain density [kg/m³]",
         );
         c.positive("material.i_max", m.i_max);
         match m.model {

@@ -492,13 +492,7 @@ impl Solver {
             dt,
             el: self.elastic,
             frictional: stress_block::Consts::new(
-                dt,
-                self.elastic,
-                self.surface,
-                &m.model,
-                m.grain_diameter,
-                m.grain_density,
-                m.i_max,
+                dt, self.elastic, self.surface, &m.model, m.grain_diameter, m.grain_density, m.i_max,
             ),
         }
     }

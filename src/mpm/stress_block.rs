@@ -302,16 +302,7 @@ mod tests {
 
     fn bits(p: &Point) -> Vec<u64> {
         [
-            p.j,
-            p.vol,
-            p.stress.xx,
-            p.stress.yy,
-            p.stress.xy,
-            p.stress.zz,
-            p.eps_p,
-            p.work_p,
-            p.mu,
-            p.inertial,
+            p.j, p.vol, p.stress.xx, p.stress.yy, p.stress.xy, p.stress.zz, p.eps_p, p.work_p, p.mu, p.inertial,
         ]
         .iter()
         .map(|v| v.to_bits())

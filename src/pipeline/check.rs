@@ -10,6 +10,7 @@ use serde_yaml::Value as Yaml;
 
 use super::diag::{Diagnostic, Diagnostics};
 use crate::stages::Kind;
+use crate::stages::kind::Roles;
 
 /// Longest stage id allowed.
 pub const MAX_ID_LEN: usize = 100;
@@ -246,100 +247,19 @@ pub(super) fn untagged_problem(raw: &Yaml, inner: &str) -> Option<(String, Strin
 
 pub use super::context::Arity;
 
-/// The input roles a kind reads, with their arity. Kept here, beside validation, so a
-/// missing or misnamed input is an error before anything runs; a kind's run function
-/// must read only these roles (`tests/bad_input.rs` checks the shipped pipeline).
+/// The input roles kind `kind` reads, with their arity, as its [`Kind`] declares them;
+/// None for an unknown kind or one whose params name their roles ([`Roles::Named`]).
 pub fn roles(kind: &str, params: &Json) -> Option<Vec<(&'static str, Arity)>> {
-    use Arity::*;
-    Some(match kind {
-        "psd" | "reference-laws" => vec![],
-        "psd-figure" | "dem-pile-prep" | "cd-shear" => vec![("psd", One)],
-        "cd-shear-figure" => vec![("shear", One)],
-        "cd-work-precision" => vec![],
-        "pile-run" => vec![("pile", One), ("shear", OptionalOne)],
-        "pile-runout" => vec![("runs", Many)],
-        "pile-series" => vec![("runs", Many)],
-        "pile-packing" => vec![("pile", One)],
-        "energy-runout" => vec![
-            ("col_dem", Many),
-            ("col_mpm", Many),
-            ("pile_dem", One),
-            ("pile_mpm", One),
-        ],
-        "pile-compare" => crate::stages::pile::compare::roles(params),
-        "wp-summary" => vec![("sources", Many)],
-        // μ_r and the rolling model from the joint calibration, when declared
-        "dem-shear" => vec![("psd", One), ("calibration", OptionalOne)],
-        "dem-calibration-point" => vec![("psd", One), ("columns", Many)],
-        "dem-calibration" => vec![("points", Many)],
-        // A hexagonal lattice is monodisperse: no PSD needed.
-        "dem-column-prep" => vec![(
-            "psd",
-            if params.get("packing").and_then(|p| p.as_str()) == Some("hex") {
-                OptionalOne
-            } else {
-                One
-            },
-        )],
-        "dem-snapshot" => vec![("column", One)],
-        "dem-collapse" | "dem-compress" => vec![("column", One), ("calibration", OptionalOne)],
-        "dem-work-precision" => vec![("column", One), ("calibration", OptionalOne), ("coarser", OptionalOne)],
-        "material-table" => vec![
-            ("psd", OptionalOne),
-            ("shear", OptionalOne),
-            ("compression", OptionalOne),
-        ],
-        "mpm-geostatic" | "mpm-collapse" | "mpm-work-precision" => {
-            vec![("shear", OptionalOne), ("compression", OptionalOne)]
-        }
-        // Column study, rest (issue 9): figs 4.12, 4.15, 4.17, 4.19–4.21.
-        "column-scheme" => vec![("run", One)],
-        "column-inertial" => vec![
-            ("mui04", One),
-            ("mui6", One),
-            ("mc04", One),
-            ("mc6", One),
-            ("dem04", One),
-            ("dem6", One),
-        ],
-        "column-packing" => vec![("loose", One), ("dense", One)],
-        "column-density-pair" => vec![
-            ("loose", One),
-            ("dense", One),
-            ("loose_prep", One),
-            ("dense_prep", One),
-            ("emin", One),
-            ("emax", One),
-        ],
-        // Free role names, checked against the declaration in `check_roles`.
-        "plot" | "sweep-compare" | "snapshot" => vec![],
-        "power-law-fit" => {
-            let overlays = params
-                .get("overlay_laws")
-                .and_then(|o| o.as_array())
-                .is_some_and(|a| !a.is_empty());
-            vec![("data", Many), ("laws", if overlays { One } else { OptionalOne })]
-        }
-        _ => return None,
-    })
+    crate::stages::registry().get(kind)?.roles.fixed(params)
 }
 
 /// Problems with a stage's resolved inputs against its kind's roles: (message, help).
 pub fn check_roles(kind: &str, params: &Json, inputs: &[(String, Vec<String>)]) -> Vec<(String, String)> {
-    let declared = match kind {
-        "plot" => serde_json::from_value::<crate::stages::generic::plot::PlotParams>(params.clone())
-            .ok()
-            .map(|p| p.roles()),
-        "sweep-compare" => serde_json::from_value::<crate::stages::generic::compare::CompareParams>(params.clone())
-            .ok()
-            .map(|p| p.roles()),
-        "snapshot" => serde_json::from_value::<crate::stages::generic::snapshot::SnapParams>(params.clone())
-            .ok()
-            .map(|p| p.roles()),
-        _ => None,
+    let Some(k) = crate::stages::registry().get(kind).copied() else {
+        return vec![];
     };
-    if let Some(read) = declared {
-        return free_roles(kind, &read, inputs);
+    if let Roles::Named(read) = k.roles {
+        return read(params).map(|r| free_roles(kind, &r, inputs)).unwrap_or_default();
     }
     let Some(want) = roles(kind, params) else { return vec![] };
     let allowed = if want.is_empty() {
@@ -477,16 +397,6 @@ mod tests {
     }
 
     #[test]
-    fn every_kind_has_its_roles_declared() {
-        for name in crate::stages::registry().keys() {
-            assert!(
-                roles(name, &serde_json::json!({})).is_some(),
-                "kind `{name}` is missing from check::roles"
-            );
-        }
-    }
-
-    #[test]
     fn role_table() {
         let p = serde_json::json!({});
         assert!(check_roles("psd-figure", &p, &[("psd".into(), vec!["x".into()])]).is_empty());
@@ -494,7 +404,14 @@ mod tests {
         assert_eq!(check_roles("psd", &p, &[("psd".into(), vec!["x".into()])]).len(), 1);
         assert!(check_roles("dem-column-prep", &serde_json::json!({"packing": "hex"}), &[]).is_empty());
         assert_eq!(
-            check_roles("dem-collapse", &p, &[("column".into(), vec!["a".into(), "b".into()])]).len(),
+            check_roles("dem-shear", &p, &[("psd".into(), vec!["a".into(), "b".into()])]).len(),
+            1
+        );
+        let dem = serde_json::json!({"method": "dem"});
+        assert!(check_roles("column-collapse", &dem, &[("column".into(), vec!["a".into()])]).is_empty());
+        let mpm = serde_json::json!({"method": "mpm"});
+        assert_eq!(
+            check_roles("column-collapse", &mpm, &[("column".into(), vec!["a".into()])]).len(),
             1
         );
     }

@@ -31,6 +31,7 @@ use super::export::Measured;
 use super::profiles::load;
 use super::run::{Project, key_records};
 use super::spec::{Pipeline, Stage};
+use crate::stages::kind::{CostCtx, Work};
 
 /// A night on the cluster [h].
 pub const NIGHT_H: f64 = 12.0;
@@ -282,33 +283,20 @@ fn entry_record(proj: &Project, key: &str) -> Option<Measured> {
     super::export::measured_from_record_file(&proj.cache.entry_dir(key).join("record.json"))
 }
 
-fn num(v: &Value, path: &str) -> Option<f64> {
-    path.split('.').try_fold(v, |v, k| v.get(k))?.as_f64()
-}
-
-fn list(v: &Value, key: &str) -> Vec<f64> {
-    v.get(key)
-        .and_then(|x| x.as_array())
-        .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
-        .unwrap_or_default()
-}
-
-/// Params of the stages feeding `role`.
-fn inputs<'a>(p: &'a Pipeline, st: &Stage, role: &str) -> Vec<&'a Value> {
-    st.inputs
-        .iter()
-        .filter(|(r, _)| r == role)
-        .flat_map(|(_, ids)| ids.iter())
-        .filter_map(|id| p.get(id))
-        .map(|s| &s.params)
-        .collect()
-}
-
-/// Grains of a pile preparation: its `grains` param when set (> 0), else all of its PSD's.
-fn pile_grains(p: &Pipeline, prep: &Stage) -> Option<f64> {
-    match num(&prep.params, "grains") {
-        Some(n) if n > 0.0 => Some(n),
-        _ => inputs(p, prep, "psd").first().and_then(|c| num(c, "n")),
+/// What a kind's cost model sees of stage `st`: its params, and its inputs' by role
+/// (recursively: a pile run reaches its preparation's grading).
+fn cost_ctx<'a>(p: &'a Pipeline, st: &'a Stage) -> CostCtx<'a> {
+    CostCtx {
+        params: &st.params,
+        inputs: Box::new(move |role: &str| {
+            st.inputs
+                .iter()
+                .filter(|(r, _)| r == role)
+                .flat_map(|(_, ids)| ids.iter())
+                .filter_map(|id| p.get(id))
+                .map(|s| cost_ctx(p, s))
+                .collect()
+        }),
     }
 }
 
@@ -321,141 +309,26 @@ fn short(r: f64) -> String {
     }
 }
 
-/// A stage's work as factors in relative units (grains, steps or points; only the ratio
-/// between profiles means anything), and whether the work is the larger of the factors
-/// (a stage made of two parts) rather than their product. None: not a solver stage.
-fn work(p: &Pipeline, st: &Stage) -> Option<(Vec<(&'static str, f64)>, bool)> {
-    let v = &st.params;
-    // DEM steps per simulated second: the step is dt / √stiffness_factor.
-    let dem_rate = |v: &Value| num(v, "stiffness_factor").unwrap_or(1.0).sqrt() / num(v, "dem.dt").unwrap_or(1.0);
-    let column_area = || inputs(p, st, "column").first().and_then(|c| num(c, "area_m2"));
-    let psd_n = || inputs(p, st, "psd").first().and_then(|c| num(c, "n"));
-    let shear_time = |v: &Value| {
-        num(v, "shear.strain").unwrap_or(1.0) * list(&v["shear"], "pressures").iter().map(|p| p.powf(-0.5)).sum::<f64>()
-    };
-    let f = |g: (&'static str, f64), s: (&'static str, f64)| Some((vec![g, s], false));
-    match st.kind.as_str() {
-        "dem-column-prep" => f(("grains", num(v, "area_m2")?), ("steps", dem_rate(v))),
-        "dem-collapse" | "dem-compress" => f(("grains", column_area()?), ("steps", dem_rate(v))),
-        "dem-work-precision" => {
-            let members = num(v, "ensemble.members").unwrap_or(1.0);
-            let steps: f64 = v
-                .get("variants")?
-                .as_array()?
-                .iter()
-                .map(|x| num(x, "stiffness_factor").unwrap_or(1.0).sqrt() / num(x, "dt_fraction").unwrap_or(1.0))
-                .sum();
-            f(("grains", column_area()?), ("steps", members * steps))
-        }
-        "dem-shear" => f(("grains", psd_n()?), ("steps", dem_rate(v) * shear_time(v))),
-        "dem-calibration-point" => {
-            // Shear test and column ensembles: bounded by the larger ratio (see the module doc).
-            let shear = psd_n()? * dem_rate(v) * shear_time(v);
-            let cols: f64 = inputs(p, st, "columns")
-                .iter()
-                .filter_map(|c| num(c, "area_m2"))
-                .sum::<f64>()
-                * dem_rate(v);
-            Some((vec![("shear test", shear), ("columns", cols)], true))
-        }
-        "dem-pile-prep" => f(
-            ("grains", pile_grains(p, st)?),
-            ("steps", dem_rate(v) * num(v, "pile.max_time").unwrap_or(1.0)),
-        ),
-        "pile-run" => {
-            // Every energy runs to stop.t_max at most (in √(d/g); the same d̄ at both
-            // profiles): an upper bound, as the runs stop earlier by the stopping rule.
-            let prep = st
-                .inputs
-                .iter()
-                .find(|(r, _)| r == "pile")
-                .and_then(|(_, ids)| ids.first())
-                .and_then(|id| p.get(id))?;
-            let grains = pile_grains(p, prep)?;
-            let time = list(v, "energies_mgd").len() as f64 * num(v, "stop.t_max")?;
-            match v.get("method")?.as_str()? {
-                "dem" => f(("grains", grains), ("steps", dem_rate(v) * time)),
-                // Adaptive step below cd.dt: cd.dt bounds the step count from below.
-                "cd" => f(("grains", grains), ("steps", time / num(v, "cd.dt")?)),
-                // Points fill the pile's area (∝ grains) at ppc per h²; the CFL step ∝ h.
-                "mpm" => {
-                    let (h, ppc) = (num(v, "mpm.cell_size")?, num(v, "mpm.ppc")?);
-                    let courant = num(v, "mpm.step.cfl.courant").unwrap_or(1.0);
-                    f(("points", grains * ppc / (h * h)), ("steps", time / (courant * h)))
-                }
-                _ => None,
-            }
-        }
-        "mpm-collapse" | "mpm-geostatic" | "mpm-work-precision" => {
-            let m = &v["mpm"];
-            let c_p = serde_json::from_value::<crate::mpm::params::Material>(m["material"].clone())
-                .ok()?
-                .p_wave_speed();
-            let area = num(v, "area_m2").unwrap_or(1.0);
-            let points = |ppc: f64, h: f64| area * ppc / (h * h);
-            let cfl = |k: f64, h: f64| c_p / (k * h);
-            let h = num(m, "cell_size")?;
-            let ppc = num(m, "ppc")?;
-            match st.kind.as_str() {
-                "mpm-geostatic" => f(
-                    ("points", points(ppc, h)),
-                    ("steps", cfl(num(m, "geostatic.courant")?, h)),
-                ),
-                "mpm-collapse" => {
-                    let rate = match num(m, "step.fixed.dt") {
-                        Some(dt) => 1.0 / dt,
-                        None => cfl(num(m, "step.cfl.courant")?, h)
-                            .max(1.0 / num(m, "step.cfl.dt_max").unwrap_or(f64::INFINITY)),
-                    };
-                    f(("points", points(ppc, h)), ("steps", rate))
-                }
-                _ => {
-                    let mut total = 0.0;
-                    for &h in &list(v, "cell_sizes") {
-                        for &n in &list(v, "ppc") {
-                            for &k in &list(v, "courants") {
-                                total += points(n, h) * cfl(k, h);
-                            }
-                        }
-                    }
-                    let r = list(v, "reference");
-                    if r.len() == 3 {
-                        total += points(r[0], r[1]) * cfl(r[2], r[1]);
-                    }
-                    Some((vec![("points×steps of the sweep", total)], false))
-                }
-            }
-        }
-        "cd-shear" => {
-            let steps = num(v, "shear.strain").unwrap_or(1.0)
-                * list(&v["shear"], "inertial_numbers")
-                    .iter()
-                    .map(|i| 1.0 / i)
-                    .sum::<f64>()
-                / num(v, "cd.dt")?;
-            f(("grains", num(v, "grains")?), ("steps", steps))
-        }
-        "cd-work-precision" => {
-            let t = num(v, "settle_time").unwrap_or(0.0) + num(v, "run_time").unwrap_or(0.0);
-            let steps: f64 = v
-                .get("variants")?
-                .as_array()?
-                .iter()
-                .filter_map(|x| num(x, "dt"))
-                .map(|dt| t / dt)
-                .sum();
-            f(
-                ("grains", num(v, "deposit.ncol")? * num(v, "deposit.nrow")?),
-                ("steps", steps),
-            )
-        }
-        _ => None,
-    }
+/// A stage's work as its kind's cost model gives it (see [`crate::stages::kind::Work`]).
+/// None: not a solver stage (bookkeeping, as measured).
+fn work(p: &Pipeline, st: &Stage) -> Option<Work> {
+    (p.kinds.get(st.kind.as_str())?.cost?)(&cost_ctx(p, st))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn num(v: &Value, path: &str) -> Option<f64> {
+        path.split('.').try_fold(v, |v, k| v.get(k))?.as_f64()
+    }
+
+    fn list(v: &Value, key: &str) -> Vec<f64> {
+        v.get(key)
+            .and_then(|x| x.as_array())
+            .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+            .unwrap_or_default()
+    }
 
     /// The shipped pipeline.yaml at `profile`.
     fn shipped(profile: &str) -> Pipeline {

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use super::check;
 use super::diag::{Diagnostic, Diagnostics};
-use super::spec::{Override, PROFILES, Pipeline, load_profile};
+use super::load::load_profile;
+use super::spec::{Override, PROFILES, Pipeline};
 
 /// Load and validate a pipeline for a profile, applying `--set` overrides. Every
 /// profile is validated (a bad value in the `paper` layer is an error of a `quick` run
@@ -65,6 +66,11 @@ pub fn load_text(
     }
     if all.is_empty() {
         all.extend(crate::claims::check(root)); // stages/ledger.yaml, crate::claims
+        if let Ok(p) = &main {
+            // What each row reads, against its stage kind's declared outputs.
+            let kind_of = |id: &str| p.get(id).and_then(|s| p.kinds.get(s.kind.as_str()).copied());
+            all.extend(crate::claims::ledger::check_outputs(root, &kind_of));
+        }
     }
     match main {
         Ok(p) if all.is_empty() => Ok(p),

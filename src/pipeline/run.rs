@@ -616,9 +616,7 @@ fn publish_all(
             );
         }
     }
-    // The profile's measured errors for every figure's footer and JSON: the `wp-summary`
-    // stage of this run (its cache entry, found through the DAG's key), else its
-    // published table from an earlier run of this profile.
+    // Measured errors for the figures: this run's `wp-summary` entry, else its last table.
     let errors = {
         let done = |r: &&StageReport| matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. });
         let from_run = p
@@ -779,6 +777,8 @@ fn run_one(
             return Err(gone().unwrap_or_else(|| StageError::Failed(format!("internal error (panic): {msg}"))));
         }
     };
+    // A kind publishes only what it declares: what a plot or ledger row was checked against.
+    super::reads::require_declared(&kind, &out).map_err(StageError::Failed)?;
     let input_hashes: Vec<Value> = st
         .inputs
         .iter()

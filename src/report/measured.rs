@@ -65,7 +65,8 @@ pub fn parse_profile_csv(text: &str) -> ProfileErrors {
 }
 
 /// Methods a stage's numbers come from (for its measured error), from its run record: the
-/// kind's engine, else the engines of its inputs (the `wp` input first).
+/// method its params name, else the kind's engine, else the engines of its inputs (the `wp`
+/// input first).
 pub fn methods(rec: &Value) -> Vec<&'static str> {
     let engine = |s: &str| -> Option<&'static str> {
         if s.starts_with("dem") || s.contains("-dem") || s.starts_with("calib") {
@@ -81,6 +82,10 @@ pub fn methods(rec: &Value) -> Vec<&'static str> {
     let kind = rec.get("kind").and_then(|v| v.as_str()).unwrap_or("");
     if kind == "wp-summary" {
         return vec![];
+    }
+    // A study kind names its method (`method: dem`).
+    if let Some(m) = rec.pointer("/params/method").and_then(|v| v.as_str()).and_then(engine) {
+        return vec![m];
     }
     if let Some(m) = engine(kind) {
         return vec![m];
@@ -278,7 +283,9 @@ mod tests {
         assert!(errs["mpm"].error_se.is_nan());
         let rec = json!({ "kind": "plot", "inputs": [{ "role": "dem", "id": "col-dem" }, { "role": "wp", "id": "wp-mpm-column" }] });
         assert_eq!(methods(&rec), vec!["mpm"]);
-        assert_eq!(methods(&json!({ "kind": "dem-collapse", "inputs": [] })), vec!["dem"]);
+        assert_eq!(methods(&json!({ "kind": "dem-shear", "inputs": [] })), vec!["dem"]);
+        let mpm_column = json!({ "kind": "column-collapse", "params": { "method": "mpm" }, "inputs": [] });
+        assert_eq!(methods(&mpm_column), vec!["mpm"]);
         let l = footer_line("quick", &["dem"], &errs);
         assert_eq!(
             l,

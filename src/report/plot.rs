@@ -676,10 +676,7 @@ mod tests {
             ));
         }
         for l in [
-            "stated law one",
-            "stated law two",
-            "stated law three",
-            "stated law four",
+            "stated law one", "stated law two", "stated law three", "stated law four",
         ] {
             series.push(Series::new(l, Style::Dashed, line.clone(), 5));
         }

@@ -1,12 +1,20 @@
-//! What a stage kind is: its name, version, parameter schema and body ([`Kind`]), and the
-//! schema helpers every kind uses ([`typed`], [`decode`], [`Validate`]). A leaf of the
-//! stage layer: kinds and the pipeline import it, it imports neither.
+//! What a stage kind is, declared in one place ([`Kind`]): its name, version, parameter
+//! schema, input roles, the outputs it publishes, what it reads of its inputs by name, its
+//! cost model, its body and its pre-flight table; and the schema helpers every kind uses
+//! ([`typed`], [`decode`], [`Validate`]).
+//!
+//! The loader checks a pipeline against these declarations before anything runs: each
+//! stage's inputs against its kind's [`Roles`], and each scalar, table or measurement a
+//! stage (or the claims ledger) names of an input against that input kind's [`Outputs`].
+//! The runner checks every run against its kind's [`Outputs`], so a declaration cannot
+//! drift from what the kind publishes. Adding a kind is one file and one registry line.
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 
-use crate::pipeline::context::{Output, StageCtx};
+use crate::engines::Method;
+use crate::pipeline::context::{Arity, Output, StageCtx};
 use crate::validate::Issue;
 
 /// A parameter problem found by a kind's schema.
@@ -25,6 +33,170 @@ pub type ParamsFn = fn(&Value) -> Result<Value, Vec<ParamProblem>>;
 /// The stage body.
 pub type RunFn = fn(&StageCtx) -> anyhow::Result<Output>;
 
+/// The input roles a kind reads.
+#[derive(Clone, Copy)]
+pub enum Roles {
+    /// These roles, whatever the params.
+    Fixed(&'static [(&'static str, Arity)]),
+    /// Roles that depend on the params (an optional input made required by a setting).
+    ByParams(fn(&Value) -> Vec<(&'static str, Arity)>),
+    /// A study kind's roles, by the method its params name (`method:`).
+    ByMethod(&'static [(Method, &'static [(&'static str, Arity)])]),
+    /// The params name their roles (`plot`, `sweep-compare`, `snapshot`): each role they
+    /// read must be an input and each input must be read. None: the params do not decode
+    /// (reported by the schema).
+    Named(fn(&Value) -> Option<Vec<String>>),
+}
+
+impl Roles {
+    /// The roles with their arity, for the `Fixed` and `ByParams` forms (None for `Named`).
+    pub fn fixed(&self, params: &Value) -> Option<Vec<(&'static str, Arity)>> {
+        match self {
+            Roles::Fixed(r) => Some(r.to_vec()),
+            Roles::ByParams(f) => Some(f(params)),
+            Roles::ByMethod(by) => {
+                let m = params.get("method").and_then(Value::as_str).and_then(Method::parse);
+                Some(
+                    by.iter()
+                        .find(|(k, _)| Some(*k) == m)
+                        .map(|(_, r)| r.to_vec())
+                        .unwrap_or_default(),
+                )
+            }
+            Roles::Named(_) => None,
+        }
+    }
+}
+
+/// No inputs.
+pub const NO_INPUTS: Roles = Roles::Fixed(&[]);
+
+/// A table a kind publishes, with its columns.
+#[derive(Debug, Clone, Copy)]
+pub struct TableDecl {
+    /// Table name (`table` is the main one).
+    pub name: &'static str,
+    /// Its columns.
+    pub columns: &'static [&'static str],
+}
+
+/// What a kind publishes. A name with a `*` declares a family (see [`covers`]); every
+/// other name is exact. A kind may leave out an output in some runs (one that depends on
+/// its params); it may never publish one it does not declare.
+#[derive(Debug, Clone, Copy)]
+pub struct Outputs {
+    /// Scalars (SI, or nondimensional as the chapter defines them).
+    pub scalars: &'static [&'static str],
+    /// Tables and their columns.
+    pub tables: &'static [TableDecl],
+    /// Measurement ids (what the claims ledger reads; the chapter's results measured).
+    pub measurements: &'static [&'static str],
+}
+
+/// A kind that publishes nothing by name (a figure only).
+pub const NO_OUTPUTS: Outputs = Outputs {
+    scalars: &[],
+    tables: &[],
+    measurements: &[],
+};
+
+/// Does a declared name cover `name`? Each `*` in it stands for any run of characters
+/// (`runout_mean_a*`, `panel*_max_*`); a name without one is exact.
+pub fn covers(declared: &str, name: &str) -> bool {
+    let mut parts = declared.split('*');
+    let first = parts.next().unwrap_or("");
+    let Some(mut rest) = name.strip_prefix(first) else {
+        return false;
+    };
+    let parts: Vec<&str> = parts.collect();
+    let Some((last, middle)) = parts.split_last() else {
+        return rest.is_empty();
+    };
+    for p in middle {
+        match rest.find(p) {
+            Some(i) => rest = &rest[i + p.len()..],
+            None => return false,
+        }
+    }
+    rest.len() >= last.len() && rest.ends_with(last)
+}
+
+impl Outputs {
+    /// Is the scalar `name` declared?
+    pub fn has_scalar(&self, name: &str) -> bool {
+        self.scalars.iter().any(|d| covers(d, name))
+    }
+    /// The declared table `name`.
+    pub fn table(&self, name: &str) -> Option<&TableDecl> {
+        self.tables.iter().find(|t| covers(t.name, name))
+    }
+    /// Is the measurement id declared?
+    pub fn has_measurement(&self, id: &str) -> bool {
+        self.measurements.iter().any(|d| covers(d, id))
+    }
+    /// Is `col` a column of the declared table `table`?
+    pub fn has_column(&self, table: &str, col: &str) -> bool {
+        self.table(table)
+            .is_some_and(|t| t.columns.iter().any(|c| covers(c, col)))
+    }
+}
+
+/// One output of an input that a stage names in its params, checked at load.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Item {
+    /// A scalar.
+    Scalar(String),
+    /// A table.
+    Table(String),
+    /// A column of a table.
+    Column(String, String),
+    /// A scalar, or a column of the table (a normalisation that reads either).
+    ColumnOrScalar(String, String),
+}
+
+/// A name a stage's params read of the inputs of one role.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Read {
+    /// The role.
+    pub role: String,
+    /// The params key that names it (for the error message).
+    pub key: String,
+    /// What it names.
+    pub item: Item,
+}
+
+/// What a kind's run costs, for `plan --estimate`: factors in relative units (grains,
+/// steps, points; only the ratio between profiles means anything), and whether the work
+/// is the larger of the factors (a stage of two parts) rather than their product.
+pub type Work = (Vec<(&'static str, f64)>, bool);
+
+/// What a cost model sees: the stage's canonical params and, by role, its inputs' (each
+/// with its own inputs in turn).
+pub struct CostCtx<'a> {
+    /// The stage's canonical params.
+    pub params: &'a Value,
+    /// The stages feeding a role, in input order.
+    pub inputs: Box<dyn Fn(&str) -> Vec<CostCtx<'a>> + 'a>,
+}
+
+impl CostCtx<'_> {
+    /// The stage's params as its typed struct (None when they do not decode).
+    pub fn typed<P: DeserializeOwned>(&self) -> Option<P> {
+        serde_json::from_value(self.params.clone()).ok()
+    }
+    /// The first input of `role`, its params typed.
+    pub fn input<P: DeserializeOwned>(&self, role: &str) -> Option<P> {
+        (self.inputs)(role).first().and_then(|c| c.typed())
+    }
+    /// Every input of `role`, its params typed (those that decode).
+    pub fn all<P: DeserializeOwned>(&self, role: &str) -> Vec<P> {
+        (self.inputs)(role).iter().filter_map(|c| c.typed()).collect()
+    }
+}
+
+/// A kind's cost model: None when the kind is bookkeeping (its measured time is used).
+pub type CostFn = fn(&CostCtx) -> Option<Work>;
+
 /// A registered stage kind.
 #[derive(Clone, Copy)]
 pub struct Kind {
@@ -40,6 +212,14 @@ pub struct Kind {
     pub run: RunFn,
     /// Pre-flight stability table for `run --explain` (solver stages only).
     pub explain: Option<fn(&Value) -> String>,
+    /// The input roles it reads.
+    pub roles: Roles,
+    /// What it publishes.
+    pub outputs: Outputs,
+    /// What its params name of its inputs' outputs (checked at load); None: nothing.
+    pub reads: Option<fn(&Value) -> Vec<Read>>,
+    /// Its cost model for `plan --estimate`; None: bookkeeping (as measured).
+    pub cost: Option<CostFn>,
 }
 
 /// Parameters that validate their own values (ranges, physical sense).
@@ -98,8 +278,63 @@ pub fn decode<P: DeserializeOwned>(ctx: &StageCtx) -> anyhow::Result<P> {
     Ok(serde_json::from_value(ctx.params.clone())?)
 }
 
+/// A study kind's params name their method (`method: dem`): the method and the rest of
+/// the mapping (that method's own params). A problem names the `method` key and lists
+/// `allowed`.
+pub fn split_method(v: &Value, allowed: &[Method]) -> Result<(Method, Value), ParamProblem> {
+    let list = allowed.iter().map(|m| m.key()).collect::<Vec<_>>().join(" | ");
+    let problem = |message: String| ParamProblem {
+        key: "method".into(),
+        message,
+        allowed: list.clone(),
+    };
+    let map = v
+        .as_object()
+        .ok_or_else(|| problem("the params are not a mapping".into()))?;
+    let m = match map.get("method") {
+        None => return Err(problem("missing: the study needs its method".into())),
+        Some(Value::String(s)) => Method::parse(s)
+            .filter(|m| allowed.contains(m))
+            .ok_or_else(|| problem(format!("`{s}` is not a method of this study")))?,
+        Some(other) => return Err(problem(format!("`{other}` is not a method name"))),
+    };
+    let mut rest = map.clone();
+    rest.remove("method");
+    Ok((m, Value::Object(rest)))
+}
+
+/// The canonical params of a study kind: `canonical` (the method's own, defaults filled)
+/// with its `method` put back.
+pub fn with_method(m: Method, canonical: Value) -> Value {
+    let mut v = canonical;
+    if let Some(map) = v.as_object_mut() {
+        map.insert("method".into(), Value::String(m.key().into()));
+    }
+    v
+}
+
 impl std::fmt::Debug for Kind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "Kind({} v{})", self.name, self.version)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::covers;
+
+    #[test]
+    fn families_cover_their_members_only() {
+        assert!(covers("runout_norm", "runout_norm"));
+        assert!(!covers("runout_norm", "runout_norm_1tau"));
+        assert!(covers("runout_mean_a*", "runout_mean_a0.4"));
+        assert!(!covers("runout_mean_a*", "runout_std_a0.4"));
+        assert!(covers("panel*_max_*", "panel2_max_vx_m_s"));
+        assert!(!covers("panel*_max_*", "panel2_bodies"));
+        assert!(covers("*_ratio", "hex-shorter-runout_ratio"));
+        assert!(!covers("*_ratio", "hex-shorter-runout_pairs"));
+        assert!(covers("*", "anything"));
+        // The suffix may not overlap the prefix.
+        assert!(!covers("ab*ba", "aba"));
     }
 }

@@ -9,6 +9,7 @@
 //! `dem_common.rs` / `mpm_common.rs`).
 
 pub mod calib;
+pub mod catalogue;
 pub mod column;
 pub mod generic;
 pub mod kind;

@@ -9,6 +9,7 @@ use crate::cd::CdParams;
 use crate::cd::shear::{ShearCdParams, shear_test};
 use crate::pipeline::context::{Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -176,4 +177,35 @@ pub const SHEAR_KIND: Kind = Kind {
     params: typed::<ShearStageParams>,
     run: run_shear,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("psd", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "b", "b_se", "compaction_packing_fraction", "d_mean_m", "friction_angle_deg", "grains",
+            "max_penetration_d", "mu_min", "mu_min_se", "steps", "unconverged_steps",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "series",
+                columns: &["shear_strain", "target_inertial_number", "tau_over_sigma_n"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "inertial_number", "max_penetration_d", "mean_dt_s", "mean_iterations", "mu", "mu_se",
+                    "packing_fraction", "sigma_n_pa", "steps", "target_inertial_number", "tau_pa", "unconverged_steps",
+                    "velocity_m_s", "wall_s",
+                ],
+            },
+        ],
+        measurements: &[],
+    },
+    reads: None,
+    cost: Some(shear_cost),
 };
+
+/// Cost (shear): grains; steps = strain × Σ 1/I over the inertial numbers / Δt.
+fn shear_cost(c: &CostCtx) -> Option<Work> {
+    let p: ShearStageParams = c.typed()?;
+    let steps = p.shear.strain * p.shear.inertial_numbers.iter().map(|i| 1.0 / i).sum::<f64>() / p.cd.dt;
+    Some((vec![("grains", p.grains as f64), ("steps", steps)], false))
+}

@@ -134,4 +134,15 @@ pub const SHEAR_FIGURE_KIND: Kind = Kind {
     params: typed::<ShearFigureParams>,
     run: run_shear_figure,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("shear", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &["b", "mu_min", "mu_min_se"],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["inertial_number", "mu", "mu_se"],
+        }],
+        measurements: &["macro-friction"],
+    },
+    reads: None,
+    cost: None,
 };

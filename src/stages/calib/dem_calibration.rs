@@ -22,6 +22,9 @@ use crate::dem::shear::{ShearParams, shear_test};
 use crate::dem::{DemParams, RollingModel};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
+use crate::stages::column::dem_prep::PrepParams as ColumnPrep;
+use crate::stages::generic::psd::PsdParams;
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -252,6 +255,29 @@ pub const POINT_KIND: Kind = Kind {
     params: typed::<PointParams>,
     run: run_point,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("psd", crate::pipeline::context::Arity::One),
+        ("columns", crate::pipeline::context::Arity::Many),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "friction_angle_deg", "model_capped", "mu_r", "runout_eq46_a*", "runout_mean_a*", "runout_std_a*",
+            "stiffness_factor",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "shear",
+                columns: &["inertial_number", "sigma_n_pa", "tau_pa"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &["a", "member", "runout_norm", "t_end_over_tau_c"],
+            },
+        ],
+        measurements: &[],
+    },
+    reads: None,
+    cost: Some(cost),
 };
 
 /// Parameters of the `dem-calibration` stage.
@@ -558,6 +584,23 @@ pub const CALIB_KIND: Kind = Kind {
     params: typed::<CalibParams>,
     run: run_calib,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("points", crate::pipeline::context::Arity::Many)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "both_targets_met", "cost", "friction_angle_deg", "grid_points", "mu_r", "rolling_model_capped",
+            "runout_mean_a*", "runout_std_a*",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &[
+                "chosen", "cost", "friction_angle_deg", "model_capped", "mu_r", "runout_mean_a*",
+                "runout_over_eq46_a*", "runout_std_a*",
+            ],
+        }],
+        measurements: &["friction-angle", "runout-eq4.6-a*"],
+    },
+    reads: None,
+    cost: None,
 };
 
 /// Apply a `calibration` input (a `dem-calibration` stage) to a stage's DEM parameters:
@@ -574,4 +617,14 @@ pub fn apply_calibration(ctx: &StageCtx, dem: &mut DemParams) -> anyhow::Result<
         RollingModel::Epsd
     };
     Ok(true)
+}
+
+/// Cost: the shear test and the column ensembles, bounded by the larger ratio (see the
+/// module doc).
+fn cost(c: &CostCtx) -> Option<Work> {
+    let p: PointParams = c.typed()?;
+    let rate = p.dem.steps_per_second(p.stiffness_factor);
+    let shear = c.input::<PsdParams>("psd")?.n as f64 * rate * p.shear.relative_duration();
+    let cols: f64 = c.all::<ColumnPrep>("columns").iter().map(|x| x.area_m2).sum::<f64>() * rate;
+    Some((vec![("shear test", shear), ("columns", cols)], true))
 }

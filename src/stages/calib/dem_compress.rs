@@ -13,6 +13,8 @@ use crate::dem::compress::{CompressionParams, compression_test};
 use crate::pipeline::context::{Claim, Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
 use crate::stages::column::dem_common::{check_dem, column_from, explain_dem};
+use crate::stages::column::dem_prep::PrepParams;
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -131,4 +133,30 @@ pub const COMPRESS_KIND: Kind = Kind {
     params: typed::<CompressStageParams>,
     run: run_compress,
     explain: Some(explain_dem),
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("column", crate::pipeline::context::Arity::One),
+        ("calibration", crate::pipeline::context::Arity::OptionalOne),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "constrained_modulus_pa", "height_m", "k0", "stiffness_factor", "youngs_modulus_pa",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["axial_strain", "axial_stress_pa", "lateral_stress_pa"],
+        }],
+        measurements: &["youngs-modulus"],
+    },
+    reads: None,
+    cost: Some(cost),
 };
+
+/// Cost: grains ∝ the input column's area, steps per simulated second.
+fn cost(c: &CostCtx) -> Option<Work> {
+    let p: CompressStageParams = c.typed()?;
+    let area = c.input::<PrepParams>("column")?.area_m2;
+    Some((
+        vec![("grains", area), ("steps", p.dem.steps_per_second(p.stiffness_factor))],
+        false,
+    ))
+}

@@ -13,6 +13,8 @@ use crate::dem::shear::{ShearParams, shear_test};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
 use crate::stages::column::dem_common::{check_dem, explain_dem};
+use crate::stages::generic::psd::PsdParams;
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -170,4 +172,46 @@ pub const SHEAR_KIND: Kind = Kind {
     params: typed::<ShearStageParams>,
     run: run_shear,
     explain: Some(explain_dem),
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("psd", crate::pipeline::context::Arity::One),
+        ("calibration", crate::pipeline::context::Arity::OptionalOne),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "cohesion_free_fit_pa", "friction_angle_deg", "friction_angle_free_fit_deg", "grains",
+            "max_inertial_number", "mu_r", "pressures", "stiffness_factor",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "series",
+                columns: &["pressure_pa", "shear_strain", "tau_over_sigma_n"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "inertial_number", "mu", "pressure_pa", "sigma_n_pa", "tau_pa", "velocity_m_s",
+                ],
+            },
+        ],
+        measurements: &["friction-angle"],
+    },
+    reads: None,
+    cost: Some(cost),
 };
+
+/// Cost: grains of the PSD input; steps per simulated second times the simulated time of
+/// the test (strain over the shear rate at each pressure, ∝ P^-1/2 at fixed I).
+fn cost(c: &CostCtx) -> Option<Work> {
+    let p: ShearStageParams = c.typed()?;
+    let n = c.input::<PsdParams>("psd")?.n as f64;
+    Some((
+        vec![
+            ("grains", n),
+            (
+                "steps",
+                p.dem.steps_per_second(p.stiffness_factor) * p.shear.relative_duration(),
+            ),
+        ],
+        false,
+    ))
+}

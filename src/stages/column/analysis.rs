@@ -1,5 +1,5 @@
-//! Per-run analysis of a column collapse, the same for the `dem-collapse` and
-//! `mpm-collapse` kinds (issue 9, item 2): run-out sensitivity to the D01 linking gap,
+//! Per-run analysis of a column collapse, the same for every method of the
+//! `column-collapse` kind (issue 9, item 2): run-out sensitivity to the D01 linking gap,
 //! τ_c nominal and measured (D05), phases of §4.2 (0.8 τ_c, 3 τ_c, 6 τ_c), run-out and stop
 //! times (D10), inertial-number statistics (D08), failure angle at τ_c (D18) and μ_e by
 //! the three estimators of D17. Every number comes from `crate::analysis` reading the

@@ -1,18 +1,22 @@
-//! Kind `dem-collapse`: the DEM granular column collapse (L(t), H(t), energy ledger, until
-//! at rest), with the per-run analysis shared with the MPM ([`super::analysis`]).
+//! The DEM's column collapse (L(t), H(t), energy ledger, until at rest): the `dem` method
+//! of the `column-collapse` kind ([`super::collapse`]), which runs the analysis shared
+//! with the MPM on the [`ColumnTrace`] this returns.
 
 use serde::{Deserialize, Serialize};
 
-use super::dem_common::{check_dem, column_from, explain_dem};
+use super::dem_common::{check_dem, column_from};
 use crate::dem::DemParams;
 use crate::dem::column::{CollapseParams, CollapseResult, collapse};
 use crate::dem::prep::Column;
+use crate::engines::Method;
+use crate::engines::column::{Collapsed, ColumnEngine, ColumnTrace, EnergyCurve, Shared};
 use crate::pipeline::context::{Claim, Output, StageCtx, frame};
-use crate::report::plot::{Chart, Series, Style, footer};
-use crate::stages::{Kind, Validate, decode, typed};
+use crate::stages::Validate;
+use crate::stages::column::dem_prep::PrepParams;
+use crate::stages::kind::{CostCtx, Work};
 use crate::validate::{Checker, Issue};
 
-/// Parameters of a `dem-collapse` stage.
+/// Parameters of a `column-collapse` stage with `method: dem`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CollapseStageParams {
@@ -129,89 +133,59 @@ fn packing_table(col: &Column, r: &CollapseResult) -> anyhow::Result<(polars::pr
     Ok((df, rows[0][1], rows[rows.len() - 1][1]))
 }
 
-fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
-    let mut p: CollapseStageParams = decode(ctx)?;
-    let calibrated = crate::stages::calib::dem_calibration::apply_calibration(ctx, &mut p.dem)?;
-    let run = p.dem.softened(p.stiffness_factor);
-    let col = column_from(ctx.input("column")?, run.density)?;
-    let r = collapse(&col, &run, &p.run)?;
-    let mut out = Output::default();
-    out.table("table", collapse_table(&r)?);
-    out.table(
-        "snapshots",
-        crate::stages::generic::snapshot::dem_rows(&r.snapshots, r.tau_c)?,
-    );
-    let s = &r.samples;
-    let e0 = s.first().map(|v| v.ep).unwrap_or(1.0);
-    let last = s.last().copied();
-    // D10: t_f = when the front settles to within 0.5 d̄ of its final position (d̄ the
-    // volume-mean diameter, as docs/definitions.md SC-PSD defines it).
-    let d_mean = col.state.volume_mean_diameter();
-    let t_f = crate::analysis::front::stop_time(
-        &s.iter().map(|v| v.t).collect::<Vec<_>>(),
-        &s.iter().map(|v| v.length).collect::<Vec<_>>(),
-        0.5 * d_mean,
-    );
-    let kmax = s
-        .iter()
-        .copied()
-        .fold(None::<crate::dem::column::Sample>, |a, v| match a {
-            Some(x) if x.ekx + x.eky >= v.ekx + v.eky => Some(x),
-            _ => Some(v),
-        });
-    let a = r.h0 / r.l0;
-    let dl = r.delta_l();
-    let at_rest = r.stop == crate::dem::column::StopReason::AtRest;
-    let max_res = s.iter().map(|v| v.residual.abs()).fold(0.0, f64::max);
-    out.scalar("a", a)
-        .scalar("l0_m", r.l0)
-        .scalar("h0_m", r.h0)
-        .scalar("tau_c_s", r.tau_c)
-        .scalar("n", col.state.len() as f64)
-        .scalar("runout_norm", dl)
-        .scalar("lf_m", r.runout())
-        .scalar("hf_over_l0", last.map(|v| v.height / r.l0).unwrap_or(f64::NAN))
-        .scalar("t_end_over_tau_c", last.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN))
-        .scalar("t_f_over_tau_c", t_f / r.tau_c)
-        .scalar("t_kemax_over_tau_c", kmax.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN))
-        .scalar(
-            "ed_over_e0_end",
-            last.map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).unwrap_or(f64::NAN),
-        )
-        .scalar(
-            "w_frictional_over_e0_end",
-            last.map(|v| v.ledger.frictional() / e0).unwrap_or(f64::NAN),
-        )
-        .scalar(
-            "w_collisional_over_e0_end",
-            last.map(|v| v.ledger.collisional() / e0).unwrap_or(f64::NAN),
-        )
-        .scalar("erot_over_e0_end", last.map(|v| v.erot / e0).unwrap_or(f64::NAN))
-        .scalar("elastic_over_e0_end", last.map(|v| v.elastic / e0).unwrap_or(f64::NAN))
-        .scalar("max_balance_residual_over_e0", max_res / e0)
-        .scalar("max_overlap_fraction", r.max_overlap_fraction)
-        .scalar("dt_s", r.dt)
-        .scalar("steps", r.steps as f64)
-        .scalar("at_rest", f64::from(u8::from(at_rest)));
-    // One run of a chaotic flow is not a claim: eq 4.6 is checked on ensemble means (with
-    // their spread) by calib-dem; this stage shows the flow evolution of member 0.
-    out.scalar("mu_r", p.dem.rolling.mu_r)
-        .scalar("runout_eq46", crate::stages::calib::dem_calibration::eq46(a));
-    out.note(format!("Single run: ΔL = {dl:.3} against eq 4.6's {:.3}; the run-out is chaotic (±0.05 from a 1e-9 m perturbation), so the claim is made on ensemble means by calib-dem.", crate::stages::calib::dem_calibration::eq46(a)));
-    if calibrated {
-        out.note(format!(
-            "Rolling friction μ_r = {} ({:?} model) from the joint calibration (calibrated).",
-            p.dem.rolling.mu_r, p.dem.rolling.model
+impl ColumnEngine for CollapseStageParams {
+    fn collapse<'a>(&'a self, ctx: &'a StageCtx, out: &mut Output) -> anyhow::Result<Collapsed<'a>> {
+        let mut p = self.clone();
+        let calibrated = crate::stages::calib::dem_calibration::apply_calibration(ctx, &mut p.dem)?;
+        let run = p.dem.softened(p.stiffness_factor);
+        let col = column_from(ctx.input("column")?, run.density)?;
+        let r = collapse(&col, &run, &p.run)?;
+        out.table("table", collapse_table(&r)?);
+        out.table(
+            "snapshots",
+            crate::stages::generic::snapshot::dem_rows(&r.snapshots, r.tau_c)?,
+        );
+        let s = &r.samples;
+        let e0 = s.first().map(|v| v.ep).unwrap_or(1.0);
+        let last = s.last().copied();
+        let d_mean = col.state.volume_mean_diameter();
+        let a = r.h0 / r.l0;
+        let dl = r.delta_l();
+        let at_rest = r.stop == crate::dem::column::StopReason::AtRest;
+        let max_res = s.iter().map(|v| v.residual.abs()).fold(0.0, f64::max);
+        out.scalar("n", col.state.len() as f64)
+            .scalar(
+                "w_frictional_over_e0_end",
+                last.map(|v| v.ledger.frictional() / e0).unwrap_or(f64::NAN),
+            )
+            .scalar(
+                "w_collisional_over_e0_end",
+                last.map(|v| v.ledger.collisional() / e0).unwrap_or(f64::NAN),
+            )
+            .scalar("erot_over_e0_end", last.map(|v| v.erot / e0).unwrap_or(f64::NAN))
+            .scalar("elastic_over_e0_end", last.map(|v| v.elastic / e0).unwrap_or(f64::NAN))
+            .scalar("max_balance_residual_over_e0", max_res / e0)
+            .scalar("max_overlap_fraction", r.max_overlap_fraction)
+            .scalar("dt_s", r.dt)
+            .scalar("steps", r.steps as f64)
+            .scalar("at_rest", f64::from(u8::from(at_rest)));
+        // One run of a chaotic flow is not a claim: eq 4.6 is checked on ensemble means (with
+        // their spread) by calib-dem; this stage shows the flow evolution of member 0.
+        out.scalar("mu_r", p.dem.rolling.mu_r)
+            .scalar("runout_eq46", crate::stages::calib::dem_calibration::eq46(a));
+        out.note(format!("Single run: ΔL = {dl:.3} against eq 4.6's {:.3}; the run-out is chaotic (±0.05 from a 1e-9 m perturbation), so the claim is made on ensemble means by calib-dem.", crate::stages::calib::dem_calibration::eq46(a)));
+        if calibrated {
+            out.note(format!(
+                "Rolling friction μ_r = {} ({:?} model) from the joint calibration (calibrated).",
+                p.dem.rolling.mu_r, p.dem.rolling.model
+            ));
+        }
+        out.checks.push(Claim::at_most(
+            "energy-balance",
+            "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (docs/definitions.md D07: within 1 %)",
+            0.01,
+            max_res / e0,
         ));
-    }
-    out.checks.push(Claim::at_most(
-        "energy-balance",
-        "E_0 = E_p + E_k + E_rot + elastic + dissipated: max |residual|/E_0 (docs/definitions.md D07: within 1 %)",
-        0.01,
-        max_res / e0,
-    ));
-    // Per-run analysis shared with the MPM (stages::column::analysis).
-    {
         use crate::dem::column::cloud;
         let phi = match ctx.input_opt("calibration") {
             Some(c) => c.scalar("friction_angle_deg")?,
@@ -225,165 +199,102 @@ fn run_collapse_stage(ctx: &StageCtx) -> anyhow::Result<Output> {
             .map(|s| cloud(&s.state, s.t));
         let fin = &r.snapshots[r.snapshots.len() - 1].state;
         let clouds: Vec<_> = r.snapshots.iter().map(|s| cloud(&s.state, s.t)).collect();
-        let thick = super::front_rules::report(&mut out, &clouds, d_mean, (r.l0, r.tau_c), p.run.front)?;
+        let thick = super::front_rules::report(out, &clouds, d_mean, (r.l0, r.tau_c), p.run.front)?;
         out.note(format!("Run-out at rest: runout_norm = {dl:.3} is the chapter's rule (\"the farthest grain which has at least one contact with the main mass\": edges within {} d̄) and carries the DEM claims, as the chapter defines it; runout_thick_norm = {thick:.3} is the rule the MPM uses (the deposit connected to the main mass at least {} d̄ thick; table runout_by_threshold).", p.run.link_gap, p.run.front.threshold_d));
-        let tt: Vec<f64> = s.iter().map(|v| v.t).collect();
-        let ll: Vec<f64> = s.iter().map(|v| v.length).collect();
-        let hh: Vec<f64> = s.iter().map(|v| v.height).collect();
-        let ek: Vec<f64> = s.iter().map(|v| v.ekx + v.eky).collect();
-        let ep: Vec<f64> = s.iter().map(|v| v.ep).collect();
-        let ist: Vec<_> = s.iter().map(|v| v.inertial).collect();
-        super::analysis::analyse(
-            &mut out,
-            &super::analysis::Run {
-                method: "DEM",
-                l0: r.l0,
-                h0: r.h0,
-                tau: r.tau_c,
-                d: d_mean,
-                t: &tt,
-                l: &ll,
-                h: &hh,
-                ek: &ek,
-                ep: &ep,
-                inertial: &ist,
-                gaps: &p.run.link_gap_sensitivity,
-                gap_lengths: &r.gap_lengths,
-                link_gap: p.run.link_gap,
-                at_tau: at_tau.as_ref(),
-                x_start: &col.state.x,
-                x_end: &fin.x,
-                mass: &col.state.m,
-                phi_deg: phi,
-                mu_grain: p.dem.grain.friction,
-                at_rest,
-                g: p.dem.gravity,
-            },
-        )?;
-        if s.len() > 1 {
-            out.claims.push(Claim::abs(
-                "motion-persists-6tau",
-                "DEM: \"some motion still persists along the free surface … up to t ≈ 6τ_c\" — end of the run by the stated stop rule (E_k < ke_ratio·E_0 and a still front), t_stop/τ_c (tolerance 1.5)",
-                6.0, last.map(|v| v.t / r.tau_c).unwrap_or(f64::NAN), 1.5,
+        let series = |f: &dyn Fn(&crate::dem::column::Sample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
+        let over_e0 = |label: &str, color: usize, f: &dyn Fn(&crate::dem::column::Sample) -> f64| EnergyCurve {
+            label: label.into(),
+            color,
+            over_e0: s.iter().map(|v| f(v) / e0).collect(),
+        };
+        let trace = ColumnTrace {
+            method: Method::Dem,
+            l0: r.l0,
+            h0: r.h0,
+            tau: r.tau_c,
+            d: d_mean,
+            g: p.dem.gravity,
+            t: series(&|v| v.t),
+            l: series(&|v| v.length),
+            h: series(&|v| v.height),
+            ek: series(&|v| v.ekx + v.eky),
+            ep: series(&|v| v.ep),
+            inertial: s.iter().map(|v| v.inertial).collect(),
+            gaps: p.run.link_gap_sensitivity.clone(),
+            gap_lengths: r.gap_lengths.clone(),
+            link_gap: p.run.link_gap,
+            at_tau,
+            x_start: col.state.x.clone(),
+            x_end: fin.x.clone(),
+            mass: col.state.m.clone(),
+            phi_deg: phi,
+            mu_grain: p.dem.grain.friction,
+            at_rest,
+            runout_norm: dl,
+            lf_m: r.runout(),
+            hf_m: last.map(|v| v.height).unwrap_or(f64::NAN),
+            energies: vec![
+                over_e0("E_p/E_0", 0, &|v| v.ep),
+                over_e0("E_k/E_0", 1, &|v| v.ekx + v.eky),
+                EnergyCurve {
+                    label: "E_d/E_0 (eq 4.12)".into(),
+                    color: 2,
+                    over_e0: s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0).collect(),
+                },
+                over_e0("frictional W_f/E_0", 3, &|v| v.ledger.frictional()),
+                over_e0("collisional W_c/E_0", 4, &|v| v.ledger.collisional()),
+            ],
+            footer: format!("ΔL = {dl:.3}, stiffness factor {}", p.stiffness_factor),
+        };
+        let finish = move |out: &mut Output, _: &Shared| -> anyhow::Result<()> {
+            let s = &r.samples;
+            if s.len() > 1 {
+                out.claims.push(Claim::abs(
+                    "motion-persists-6tau",
+                    "DEM: \"some motion still persists along the free surface … up to t ≈ 6τ_c\" — end of the run by the stated stop rule (E_k < ke_ratio·E_0 and a still front), t_stop/τ_c (tolerance 1.5)",
+                    6.0, s.last().map(|v| v.t / r.tau_c).unwrap_or(f64::NAN), 1.5,
+                ));
+            }
+            let (pk, phi0, phi1) = packing_table(&col, &r)?;
+            out.table("packing", pk);
+            out.scalar("phi_voronoi_initial", phi0)
+                .scalar("phi_voronoi_final", phi1);
+            let rule = p.run.rule();
+            out.note(format!(
+                "Stop rule (shared with the MPM): after {} τ_c, E_k + E_rot < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: grains linked when their edges are within {} d̄ (D01; sensitivity table `link_gap_sensitivity`).",
+                rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max, p.run.link_gap
             ));
-        }
-        let (pk, phi0, phi1) = packing_table(&col, &r)?;
-        out.table("packing", pk);
-        out.scalar("phi_voronoi_initial", phi0)
-            .scalar("phi_voronoi_final", phi1);
-        let rule = p.run.rule();
-        out.note(format!(
-            "Stop rule (shared with the MPM): after {} τ_c, E_k + E_rot < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: grains linked when their edges are within {} d̄ (D01; sensitivity table `link_gap_sensitivity`).",
-            rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max, p.run.link_gap
-        ));
-    }
-    out.note(format!(
-        "{} grains, Δt = {:.3e} s, {} steps, stop: {:?}, wall {:.1} s; max overlap {:.3} % of d.",
-        col.state.len(),
-        r.dt,
-        r.steps,
-        r.stop,
-        r.wall_s,
-        100.0 * r.max_overlap_fraction
-    ));
-    if p.vtk {
-        for (i, snap) in r.snapshots.iter().enumerate() {
-            out.files.push((
-                format!("snapshot-{i:02}-t{:.3}tau.vtp", snap.t / r.tau_c),
-                snap.to_vtp().into_bytes(),
+            out.note(format!(
+                "{} grains, Δt = {:.3e} s, {} steps, stop: {:?}, wall {:.1} s; max overlap {:.3} % of d.",
+                col.state.len(),
+                r.dt,
+                r.steps,
+                r.stop,
+                r.wall_s,
+                100.0 * r.max_overlap_fraction
             ));
-        }
+            if p.vtk {
+                for (i, snap) in r.snapshots.iter().enumerate() {
+                    out.files.push((
+                        format!("snapshot-{i:02}-t{:.3}tau.vtp", snap.t / r.tau_c),
+                        snap.to_vtp().into_bytes(),
+                    ));
+                }
+            }
+            Ok(())
+        };
+        Ok(Collapsed {
+            trace,
+            finish: Box::new(finish),
+        })
     }
-    let t: Vec<f64> = s.iter().map(|v| v.t / r.tau_c).collect();
-    let chart = Chart {
-        title: ctx
-            .caption
-            .clone()
-            .unwrap_or_else(|| format!("DEM column collapse, a = {a:.2}")),
-        footer: footer(
-            &ctx.profile,
-            &format!("ΔL = {dl:.3}, stiffness factor {}", p.stiffness_factor),
-        ),
-        x_label: "t/τ_c".into(),
-        y_label: "(L − L_0)/L_0,  H/L_0".into(),
-        series: vec![
-            Series::new(
-                "DEM (L − L_0)/L_0",
-                Style::Line,
-                t.iter()
-                    .copied()
-                    .zip(s.iter().map(|v| (v.length - r.l0) / r.l0))
-                    .collect(),
-                0,
-            ),
-            Series::new(
-                "DEM H/L_0",
-                Style::Line,
-                t.iter().copied().zip(s.iter().map(|v| v.height / r.l0)).collect(),
-                1,
-            ),
-        ],
-        ..Default::default()
-    };
-    out.figure("figure", chart.to_svg()?);
-    let en = Chart {
-        title: format!("DEM energy evolution, a = {a:.2}"),
-        footer: footer(&ctx.profile, ""),
-        x_label: "t/τ_c".into(),
-        y_label: "E/E_0".into(),
-        series: vec![
-            Series::new(
-                "E_p/E_0",
-                Style::Line,
-                t.iter().copied().zip(s.iter().map(|v| v.ep / e0)).collect(),
-                0,
-            ),
-            Series::new(
-                "E_k/E_0",
-                Style::Line,
-                t.iter().copied().zip(s.iter().map(|v| (v.ekx + v.eky) / e0)).collect(),
-                1,
-            ),
-            Series::new(
-                "E_d/E_0 (eq 4.12)",
-                Style::Line,
-                t.iter()
-                    .copied()
-                    .zip(s.iter().map(|v| 1.0 - (v.ekx + v.eky + v.ep) / e0))
-                    .collect(),
-                2,
-            ),
-            Series::new(
-                "frictional W_f/E_0",
-                Style::Line,
-                t.iter()
-                    .copied()
-                    .zip(s.iter().map(|v| v.ledger.frictional() / e0))
-                    .collect(),
-                3,
-            ),
-            Series::new(
-                "collisional W_c/E_0",
-                Style::Line,
-                t.iter()
-                    .copied()
-                    .zip(s.iter().map(|v| v.ledger.collisional() / e0))
-                    .collect(),
-                4,
-            ),
-        ],
-        ..Default::default()
-    };
-    out.figure("energy", en.to_svg()?);
-    Ok(out)
 }
 
-/// Kind `dem-collapse`.
-pub const COLLAPSE_KIND: Kind = Kind {
-    name: "dem-collapse",
-    version: 7,
-    about: "DEM granular column collapse: L(t), H(t), energy ledger, until at rest",
-    params: typed::<CollapseStageParams>,
-    run: run_collapse_stage,
-    explain: Some(explain_dem),
-};
+/// Cost: grains ∝ the input column's area, steps per simulated second.
+pub(super) fn cost(p: &CollapseStageParams, c: &CostCtx) -> Option<Work> {
+    let area = c.input::<PrepParams>("column")?.area_m2;
+    Some((
+        vec![("grains", area), ("steps", p.dem.steps_per_second(p.stiffness_factor))],
+        false,
+    ))
+}

@@ -16,6 +16,7 @@ use crate::dem::prep::{DepositionParams, deposited_column, hex_column};
 use crate::math::PI;
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64};
 use crate::report::plot::footer;
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -172,4 +173,43 @@ pub const PREP_KIND: Kind = Kind {
     params: typed::<PrepParams>,
     run: run_prep,
     explain: Some(explain_dem),
+    roles: crate::stages::kind::Roles::ByParams(roles),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "a", "h0_m", "l0_m", "n", "packing_fraction", "packing_fraction_core", "seed", "settle_ke_over_ep",
+            "settle_time_s", "stiffness_factor",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "contacts",
+                columns: &["a", "b", "ft_n", "mr_nm", "rolling_rad", "tangential_m", "wall"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &["r_m", "x_m", "y_m"],
+            },
+        ],
+        measurements: &["packing-fraction"],
+    },
+    reads: None,
+    cost: Some(cost),
 };
+
+/// Cost: grains ∝ the column's area, steps per simulated second of the run stiffness.
+fn cost(c: &CostCtx) -> Option<Work> {
+    let p: PrepParams = c.typed()?;
+    Some((
+        vec![
+            ("grains", p.area_m2),
+            ("steps", p.dem.steps_per_second(p.stiffness_factor)),
+        ],
+        false,
+    ))
+}
+
+/// Roles: a hexagonal lattice is monodisperse, so its PSD input is optional.
+fn roles(v: &serde_json::Value) -> Vec<(&'static str, crate::pipeline::context::Arity)> {
+    use crate::pipeline::context::Arity::*;
+    let hex = v.get("packing").and_then(|p| p.as_str()) == Some("hex");
+    vec![("psd", if hex { OptionalOne } else { One })]
+}

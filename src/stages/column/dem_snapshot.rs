@@ -203,6 +203,19 @@ pub const SNAPSHOT_KIND: Kind = Kind {
     params: typed::<SnapshotParams>,
     run: run_snapshot,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("column", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "a", "coordination_number", "grain_contacts", "h0_m", "l0_m", "n", "packing_fraction",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["r_m", "x_m", "y_m"],
+        }],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };
 
 #[cfg(test)]

@@ -180,4 +180,28 @@ pub const PAIR_KIND: Kind = Kind {
     params: typed::<PairParams>,
     run: run_pair,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("loose", crate::pipeline::context::Arity::One),
+        ("dense", crate::pipeline::context::Arity::One),
+        ("loose_prep", crate::pipeline::context::Arity::One),
+        ("dense_prep", crate::pipeline::context::Arity::One),
+        ("emin", crate::pipeline::context::Arity::One),
+        ("emax", crate::pipeline::context::Arity::One),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "compaction_loss_over_e0", "compaction_loss_over_e0_at_tau_c", "dense_dr", "dense_ed_over_e0_at_compare",
+            "dense_ek_peak_over_e0", "dense_front_bins", "dense_front_r2_linear", "dense_front_r2_quadratic",
+            "dense_phi", "dense_runout_norm", "dense_t_end_over_tau_c", "e_max", "e_min", "ek_peak_ratio", "loose_dr",
+            "loose_ed_over_e0_at_compare", "loose_ek_peak_over_e0", "loose_front_bins", "loose_front_r2_linear",
+            "loose_front_r2_quadratic", "loose_phi", "loose_runout_norm", "loose_t_end_over_tau_c", "phi_ref_dense",
+            "phi_ref_loose", "runout_ratio",
+        ],
+        tables: &[],
+        measurements: &[
+            "r6-compaction-loss", "r6-dense-longer-runout", "r6-front-shape", "r6-peak-ek",
+        ],
+    },
+    reads: None,
+    cost: None,
 };

@@ -131,4 +131,38 @@ pub const INERTIAL_KIND: Kind = Kind {
     params: typed::<InertialParams>,
     run: run_inertial,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("mui04", crate::pipeline::context::Arity::One),
+        ("mui6", crate::pipeline::context::Arity::One),
+        ("mc04", crate::pipeline::context::Arity::One),
+        ("mc6", crate::pipeline::context::Arity::One),
+        ("dem04", crate::pipeline::context::Arity::One),
+        ("dem6", crate::pipeline::context::Arity::One),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "dem04_a", "dem04_i_max", "dem04_i_whole_mass_max", "dem04_over_mui04", "dem6_a", "dem6_i_max",
+            "dem6_i_whole_mass_max", "dem6_over_mui6", "mc04_a", "mc04_i_max", "mc04_i_whole_mass_max", "mc6_a",
+            "mc6_i_max", "mc6_i_whole_mass_max", "mui04_a", "mui04_i_max", "mui04_i_whole_mass_max", "mui6_a",
+            "mui6_i_max", "mui6_i_whole_mass_max",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "guides",
+                columns: &["i_dense_high", "i_dense_low", "t_over_tau_c"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "a", "h0_m", "max_i_cg_flowing_mean", "max_i_cg_p95", "max_i_cg_whole_mass_mean",
+                    "max_i_point_mean", "max_i_point_mean_deep", "max_i_point_p95", "run",
+                ],
+            },
+        ],
+        measurements: &[
+            "dem-collisional", "mui-dense-regime", "mui-short-max-i", "mui-tall-max-i",
+        ],
+    },
+    reads: None,
+    cost: None,
 };

@@ -4,6 +4,7 @@
 //! analysis kinds (scheme, inertial number, packing, density pair).
 
 pub mod analysis;
+pub mod collapse;
 pub mod common;
 pub mod dem_collapse;
 pub mod dem_common;

@@ -86,3 +86,13 @@ pub(crate) fn explain_mpm(v: &serde_json::Value) -> String {
         Err(e) => format!("refused: {e}"),
     }
 }
+
+/// Material points of a column of `area` at `ppc` per cell of size `h`.
+pub(crate) fn points(area: f64, ppc: f64, h: f64) -> f64 {
+    area * ppc / (h * h)
+}
+
+/// CFL steps per simulated second at Courant number `k` and cell size `h`.
+pub(crate) fn cfl(m: &MpmParams, k: f64, h: f64) -> f64 {
+    m.material.p_wave_speed() / (k * h)
+}

@@ -4,11 +4,13 @@
 use serde::{Deserialize, Serialize};
 
 use super::mpm_common::{calibrate, check_mpm, explain_mpm};
+use super::mpm_common::{cfl, points};
 use crate::mpm::MpmParams;
 use crate::mpm::column::fig4_04;
 use crate::pipeline::context::{Claim, Output, StageCtx, frame};
 use crate::report::plot::footer;
 use crate::report::snapshot::{Field, Segment, Shape, Snapshot};
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -212,4 +214,40 @@ pub const GEOSTATIC_KIND: Kind = Kind {
     params: typed::<GeostaticParams>,
     run: run_geostatic,
     explain: Some(explain_mpm),
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("shear", crate::pipeline::context::Arity::OptionalOne),
+        ("compression", crate::pipeline::context::Arity::OptionalOne),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "base_relative_error", "base_sigma_yy_analytic_pa", "base_sigma_yy_pa", "friction_angle_deg",
+            "geostatic_steps", "h0_m", "l0_m", "points", "rho_g_h0_pa", "youngs_modulus_pa",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "profile",
+                columns: &["sigma_yy_analytic_pa", "sigma_yy_pa", "y_m"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &["sigma_xx_pa", "sigma_yy_pa", "x_m", "y_m"],
+            },
+        ],
+        measurements: &[],
+    },
+    reads: None,
+    cost: Some(geostatic_cost),
 };
+
+/// Cost (geostatic): the column's points, CFL steps of the geostatic stage.
+fn geostatic_cost(c: &CostCtx) -> Option<Work> {
+    let p: GeostaticParams = c.typed()?;
+    let (m, h) = (&p.mpm, p.mpm.cell_size);
+    Some((
+        vec![
+            ("points", points(1.0, m.ppc as f64, h)),
+            ("steps", cfl(m, m.geostatic.courant, h)),
+        ],
+        false,
+    ))
+}

@@ -93,4 +93,20 @@ pub const PACKING_KIND: Kind = Kind {
     params: typed::<PackingParams>,
     run: run_packing,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("loose", crate::pipeline::context::Arity::One),
+        ("dense", crate::pipeline::context::Arity::One),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "dense_dilation_initial", "dense_phi_end", "dense_phi_initial", "dense_recompaction",
+            "loose_dilation_initial", "loose_phi_end", "loose_phi_initial", "loose_recompaction",
+        ],
+        tables: &[],
+        measurements: &[
+            "dense-dilates-initially", "loose-densifies", "loose-dilates-initially", "same-end-packing",
+        ],
+    },
+    reads: None,
+    cost: None,
 };

@@ -200,4 +200,19 @@ pub const SCHEME_KIND: Kind = Kind {
     params: typed::<SchemeParams>,
     run: run_scheme,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("run", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "delta_e_run_j", "delta_e_scheme_j", "delta_e_scheme_over_run", "deposit_t_over_tau_c",
+            "destabilised_area_over_l0h0", "g_dx_over_runout", "g_dy_over_h0", "h0_mm", "l0_mm", "lf_mm",
+            "mu_e_geometric", "runout_norm", "surface_rms_over_h0", "x_t_mm",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["shape", "x_mm", "y_mm"],
+        }],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };

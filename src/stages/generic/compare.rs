@@ -10,6 +10,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::pipeline::context::{Claim, Output, StageCtx, frame};
+use crate::stages::kind::{Item, Read};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -228,7 +229,45 @@ pub const KIND: Kind = Kind {
     params: typed::<CompareParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Named(named_roles),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &["*_pairs", "*_ratio"],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["comparison", "ratio", "x", "y_a", "y_b"],
+        }],
+        measurements: &["*"],
+    },
+    reads: Some(reads),
+    cost: None,
 };
+
+/// What the comparisons name of their inputs (checked at load).
+pub fn reads(v: &serde_json::Value) -> Vec<Read> {
+    let Ok(p) = serde_json::from_value::<CompareParams>(v.clone()) else {
+        return vec![];
+    };
+    let mut out = Vec::new();
+    for (i, c) in p.claims.iter().enumerate() {
+        for role in [&c.a, &c.b] {
+            for (f, s) in [("y", &c.y), ("pair_on", &c.pair_on)] {
+                out.push(Read {
+                    role: role.clone(),
+                    key: format!("claims[{i}].{f}"),
+                    item: Item::Scalar(s.clone()),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Roles: those the comparisons read.
+fn named_roles(v: &serde_json::Value) -> Option<Vec<String>> {
+    serde_json::from_value::<CompareParams>(v.clone())
+        .ok()
+        .map(|p| p.roles())
+}
 
 #[cfg(test)]
 mod tests {

@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::fit::{PowerFit, fixed_exponent, power_law, two_regimes};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
+use crate::stages::kind::{Item, Read};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -319,4 +320,61 @@ pub const KIND: Kind = Kind {
     params: typed::<FitParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::ByParams(roles),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "break_x", "exponent", "exponent_high", "exponent_low", "exponent_se", "exponent_se_high",
+            "exponent_se_low", "prefactor", "prefactor_high", "prefactor_low", "prefactor_se", "prefactor_se_high",
+            "prefactor_se_low", "r2", "r2_high", "r2_low",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "points",
+                columns: &["x", "y"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "exponent", "exponent_se", "log10_prefactor_se", "n_points", "prefactor", "r2", "regime", "x_max",
+                    "x_min",
+                ],
+            },
+        ],
+        measurements: &["exponent-high", "exponent-low", "exponent-single"],
+    },
+    reads: Some(reads),
+    cost: None,
 };
+
+/// What the fit names of its `data` inputs (checked at load).
+pub fn reads(v: &serde_json::Value) -> Vec<Read> {
+    let Ok(p) = serde_json::from_value::<FitParams>(v.clone()) else {
+        return vec![];
+    };
+    let read = |key: &str, item: Item| Read {
+        role: "data".into(),
+        key: key.into(),
+        item,
+    };
+    match p.source {
+        Source::Table => vec![
+            read("table", Item::Table(p.table.clone())),
+            read("x", Item::Column(p.table.clone(), p.x.clone())),
+            read("y", Item::Column(p.table.clone(), p.y.clone())),
+        ],
+        Source::Scalars => vec![
+            read("x", Item::Scalar(p.x.clone())),
+            read("y", Item::Scalar(p.y.clone())),
+        ],
+    }
+}
+
+/// Roles: the data (one or more); the laws input is required when laws are overlaid.
+fn roles(v: &serde_json::Value) -> Vec<(&'static str, crate::pipeline::context::Arity)> {
+    use crate::pipeline::context::Arity::*;
+    let overlays = v
+        .get("overlay_laws")
+        .and_then(|o| o.as_array())
+        .is_some_and(|a| !a.is_empty());
+    vec![("data", Many), ("laws", if overlays { One } else { OptionalOne })]
+}

@@ -160,4 +160,20 @@ pub const KIND: Kind = Kind {
     params: typed::<LawParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::NO_INPUTS,
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "eq4_6_branches_cross_at_a", "eq4_6_high_branch_at_2_7", "eq4_6_jump_fraction", "eq4_6_low_branch_at_2_7",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &[
+                "a", "eq4_6_runout", "eq4_7_height", "lajeunesse2005_height_2d", "lajeunesse2005_runout",
+                "lube2005_runout",
+            ],
+        }],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::pipeline::context::{InputRef, Output, StageCtx, col_f64};
 use crate::report::plot::{Chart, Legend, Series, Style, footer, panels_to_svg};
+use crate::stages::kind::{Item, Read};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -590,7 +591,84 @@ pub const KIND: Kind = Kind {
     params: typed::<PlotParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Named(named_roles),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &["panel*_points", "profile_error"],
+        tables: &[],
+        measurements: &[],
+    },
+    reads: Some(reads),
+    cost: None,
 };
+
+/// What the figure names of its inputs (checked at load against their kinds' outputs).
+pub fn reads(v: &serde_json::Value) -> Vec<Read> {
+    let Ok(p) = serde_json::from_value::<PlotParams>(v.clone()) else {
+        return vec![];
+    };
+    let mut out = Vec::new();
+    for (i, panel) in p.panels.iter().enumerate() {
+        for (j, s) in panel.series.iter().enumerate() {
+            let key = |f: &str| format!("panels[{i}].series[{j}].{f}");
+            let mut add = |f: &str, item: Item| {
+                out.push(Read {
+                    role: s.from.clone(),
+                    key: key(f),
+                    item,
+                })
+            };
+            match s.source {
+                Source::Scalars => {
+                    add("x", Item::Scalar(s.x.clone()));
+                    add("y", Item::Scalar(s.y.clone()));
+                    if let Some(e) = &s.err {
+                        add("err", Item::Scalar(e.clone()));
+                    }
+                    for k in s.filter.keys() {
+                        add(&format!("filter.{k}"), Item::Scalar(k.clone()));
+                    }
+                    if let Some(d) = &s.y_div {
+                        add("y_div", Item::Scalar(d.clone()));
+                    }
+                }
+                Source::Table => {
+                    let col = |c: &String| Item::Column(s.table.clone(), c.clone());
+                    add("table", Item::Table(s.table.clone()));
+                    add("x", col(&s.x));
+                    add("y", col(&s.y));
+                    if let Some(e) = &s.err {
+                        add("err", col(e));
+                    }
+                    for k in s.filter.keys() {
+                        add(&format!("filter.{k}"), col(k));
+                    }
+                    if let Some(d) = &s.y_div {
+                        add("y_div", Item::ColumnOrScalar(s.table.clone(), d.clone()));
+                    }
+                    if let Some(d) = &s.y_div_initial {
+                        add("y_div_initial", col(d));
+                    }
+                    if let Some(g) = &s.group {
+                        add("group", col(g));
+                    }
+                }
+            }
+        }
+    }
+    if let Some(e) = &p.error {
+        out.push(Read {
+            role: e.from.clone(),
+            key: "error.scalar".into(),
+            item: Item::Scalar(e.scalar.clone()),
+        });
+    }
+    out
+}
+
+/// Roles: those the params read.
+fn named_roles(v: &serde_json::Value) -> Option<Vec<String>> {
+    serde_json::from_value::<PlotParams>(v.clone()).ok().map(|p| p.roles())
+}
 
 #[cfg(test)]
 mod tests {

@@ -109,6 +109,20 @@ pub const KIND: Kind = Kind {
     params: typed::<PsdParams>,
     run: run_psd,
     explain: None,
+    roles: crate::stages::kind::NO_INPUTS,
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "coefficient_of_uniformity", "d10_m", "d50_m", "d60_m", "d_mean_number_m", "d_mean_volume_m",
+            "ks_distance", "n", "polydispersity_r", "seed",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["d_m", "grain"],
+        }],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };
 
 /// Parameters of a `psd-figure` stage.
@@ -266,4 +280,24 @@ pub const FIGURE_KIND: Kind = Kind {
     params: typed::<PsdFigureParams>,
     run: run_psd_figure,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("psd", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "coefficient_of_uniformity", "d10_mm", "d50_mm", "d60_mm", "d_mean_number_mm", "d_mean_volume_mm",
+            "ks_distance", "n", "seed",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "grains",
+                columns: &["d_mm", "pct_finer"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &["d_mm", "sample_pct_finer", "target_pct_finer"],
+            },
+        ],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };

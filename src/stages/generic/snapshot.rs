@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::pipeline::context::{Output, StageCtx, col_f64, frame};
 use crate::report::plot::footer;
 use crate::report::snapshot::{Field, Segment, Shape, Snapshot};
+use crate::stages::kind::{Item, Read};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -96,14 +97,7 @@ fn push(c: &mut BTreeMap<&str, Vec<f64>>, k: usize, t: f64, x: f64, y: f64, half
 
 fn table(c: BTreeMap<&str, Vec<f64>>) -> anyhow::Result<DataFrame> {
     let order = [
-        "k",
-        "t_over_tau_c",
-        "x_m",
-        "y_m",
-        "half_m",
-        "vx_m_s",
-        "vy_m_s",
-        "speed_m_s",
+        "k", "t_over_tau_c", "x_m", "y_m", "half_m", "vx_m_s", "vy_m_s", "speed_m_s",
     ];
     frame(
         order
@@ -604,7 +598,44 @@ pub const KIND: Kind = Kind {
     params: typed::<SnapParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Named(named_roles),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &["colour_max", "panel*", "range_*_hi", "range_*_lo"],
+        tables: &[],
+        measurements: &[],
+    },
+    reads: Some(reads),
+    cost: None,
 };
+
+/// What the panels name of their inputs (checked at load).
+pub fn reads(v: &serde_json::Value) -> Vec<Read> {
+    let Ok(p) = serde_json::from_value::<SnapParams>(v.clone()) else {
+        return vec![];
+    };
+    let mut out = Vec::new();
+    for (i, panel) in p.panels.iter().enumerate() {
+        let mut add = |f: &str, item: Item| {
+            out.push(Read {
+                role: panel.from.clone(),
+                key: format!("panels[{i}].{f}"),
+                item,
+            })
+        };
+        add("table", Item::Table(panel.table.clone()));
+        add("time.column", Item::Column(panel.table.clone(), p.time.column.clone()));
+        let colour = panel.colour.as_ref().unwrap_or(&p.colour);
+        if colour != "none" {
+            add("colour", Item::Column(panel.table.clone(), colour.clone()));
+        }
+    }
+    out
+}
+
+/// Roles: those the panels read.
+fn named_roles(v: &serde_json::Value) -> Option<Vec<String>> {
+    serde_json::from_value::<SnapParams>(v.clone()).ok().map(|p| p.roles())
+}
 
 #[cfg(test)]
 mod tests {

@@ -82,8 +82,7 @@ impl Validate for TableParams {
             });
         }
         c.positive(
-            "literature.glass_youngs_modulus_pa",
-            self.literature.glass_youngs_modulus_pa,
+            "literature.glass_youngs_modulus_pa", self.literature.glass_youngs_modulus_pa,
         );
         for i in self.mpm.validate() {
             c.issues.push(Issue {
@@ -425,4 +424,22 @@ pub const KIND: Kind = Kind {
     params: typed::<TableParams>,
     run: run_table,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("psd", crate::pipeline::context::Arity::OptionalOne),
+        ("shear", crate::pipeline::context::Arity::OptionalOne),
+        ("compression", crate::pipeline::context::Arity::OptionalOne),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "cn_mean_pair_ns_per_m", "damping_ratio_eq45", "damping_ratio_used", "dem_wall_friction_angle_deg",
+            "friction_angle_deg", "kn_4er_n_per_m", "point_spacing_m", "youngs_modulus_pa",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["parameter", "source", "unit", "value"],
+        }],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };

@@ -557,6 +557,29 @@ pub const KIND: Kind = Kind {
     params: typed::<CompareParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::ByParams(roles),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "dem_cavity_gradient_d2", "dem_cavity_ratio", "dem_cavity_uniform_d2", "dem_dl_ratio_high",
+            "dem_dl_ratio_low", "dem_tf_ratio", "mpm_cavity_gradient_d2", "mpm_cavity_ratio", "mpm_cavity_uniform_d2",
+            "mpm_dl_ratio_high", "mpm_dl_ratio_low", "mpm_tf_ratio", "rel_diff_at_*", "rel_diff_max", "scatter_at_*",
+            "scatter_max", "spread_at_*", "spread_max",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &[
+                "dl_gradient", "dl_mean", "dl_scatter_within_eps", "dl_spread", "dl_uniform", "e0_mgd", "l_dem_d",
+                "l_mpm_d", "members", "method", "rel_diff", "t_over_sqrt_d_g", "tf_gradient", "tf_uniform",
+            ],
+        }],
+        measurements: &[
+            "dem-cavity-larger-uniform", "dem-gradient-longer-low", "dem-tf-gradient-shorter",
+            "dem-weak-dependence-high", "mpm-cavity-larger-uniform", "mpm-dem-front", "mpm-gradient-longer-low",
+            "mpm-tf-gradient-shorter", "mpm-weak-dependence-high", "restitution-no-difference",
+        ],
+    },
+    reads: None,
+    cost: None,
 };
 
 #[cfg(test)]

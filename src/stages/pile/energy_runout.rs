@@ -192,6 +192,30 @@ pub const KIND: Kind = Kind {
     params: typed::<Params>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[
+        ("col_dem", crate::pipeline::context::Arity::Many),
+        ("col_mpm", crate::pipeline::context::Arity::Many),
+        ("pile_dem", crate::pipeline::context::Arity::One),
+        ("pile_mpm", crate::pipeline::context::Arity::One),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "column_dem_exponent", "column_dem_exponent_se", "column_dem_r2", "column_mpm_exponent",
+            "column_mpm_exponent_se", "column_mpm_over_dem_short", "column_mpm_over_dem_tall", "column_mpm_r2",
+            "pile_dem_exponent", "pile_dem_exponent_se", "pile_dem_over_mpm_lowest", "pile_dem_r2",
+            "pile_mpm_exponent", "pile_mpm_exponent_se", "pile_mpm_over_dem_mean", "pile_mpm_r2",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["a", "dl", "energy_mgd", "family"],
+        }],
+        measurements: &[
+            "column-mpm-longer-tall", "column-similar-short", "pile-agreement", "pile-dem-longer-low",
+            "power-law-energy",
+        ],
+    },
+    reads: None,
+    cost: None,
 };
 
 #[cfg(test)]

@@ -9,6 +9,7 @@ pub mod energy_runout;
 pub mod packing;
 pub mod prep;
 pub mod run;
+pub mod run_params;
 pub mod runout;
 pub mod series;
 pub mod series_derived;

@@ -185,6 +185,19 @@ pub const KIND: Kind = Kind {
     params: typed::<PackingParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("pile", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "densification", "e0_mgd", "grains", "phi_end", "phi_initial", "phi_min", "t_phi_min",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &["phi", "t"],
+        }],
+        measurements: &["densifies", "dilation-until-20"],
+    },
+    reads: None,
+    cost: None,
 };
 
 #[cfg(test)]

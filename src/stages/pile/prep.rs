@@ -10,6 +10,8 @@ use crate::dem::{DemParams, State};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::footer;
 use crate::report::snapshot::{Segment, Shape, Snapshot};
+use crate::stages::generic::psd::PsdParams;
+use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -253,4 +255,47 @@ pub const PREP_KIND: Kind = Kind {
     params: typed::<PrepParams>,
     run: run_prep,
     explain: Some(explain_pile),
+    roles: crate::stages::kind::Roles::Fixed(&[("psd", crate::pipeline::context::Arity::One)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "h0_m", "h0_over_d", "ke_over_ep", "l0_m", "l0_over_d", "n", "packing_fraction",
+            "packing_fraction_interior", "relax_time_s", "settled", "slope_deg", "stiffness_factor",
+            "v_max_over_sqrt_gd",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "surface",
+                columns: &["top_m", "x_m"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &["r_m", "x_m", "y_m"],
+            },
+        ],
+        measurements: &["packing", "slope"],
+    },
+    reads: None,
+    cost: Some(cost),
 };
+
+/// Cost: grains poured; steps per simulated second times the longest pouring time.
+fn cost(c: &CostCtx) -> Option<Work> {
+    let p: PrepParams = c.typed()?;
+    Some((
+        vec![
+            ("grains", grains(c)?),
+            ("steps", p.dem.steps_per_second(p.stiffness_factor) * p.pile.max_time),
+        ],
+        false,
+    ))
+}
+
+/// Grains of a pile preparation: its `grains` param when set (> 0), else all of its PSD's.
+pub(crate) fn grains(c: &CostCtx) -> Option<f64> {
+    let p: PrepParams = c.typed()?;
+    if p.grains > 0 {
+        Some(p.grains as f64)
+    } else {
+        c.input::<PsdParams>("psd").map(|s| s.n as f64)
+    }
+}

@@ -3,256 +3,23 @@
 //! seed every method. Per-run summary (D01, D10–D16) and the time series; E_k/E_0 figure
 //! (figs 4.34b/4.35 style).
 
-use serde::{Deserialize, Serialize};
+use serde_json::Value;
 
-use super::common::{check_dem_pile, explain_pile};
+use super::common::explain_pile;
+use super::prep::grains as prep_grains;
+use super::run_params::params;
+use super::run_params::{RunParams, SnapSpec};
 use crate::analysis::pile::PileRun;
 use crate::analysis::pile::{
-    D_NORM, Frame, FrameTimes, M_NORM, Profile, StopRule, Summary, cavity_area, summarise, surface_at, wall_gap,
+    D_NORM, Frame, FrameTimes, M_NORM, Profile, Summary, cavity_area, summarise, surface_at, wall_gap,
 };
-use crate::cd::CdParams;
-use crate::dem::{DemParams, State};
-use crate::mpm::params::MpmParams;
-use crate::mpm::pile::MpmPileSpec;
+use crate::dem::State;
 use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
-use crate::stages::{Kind, Validate, decode, typed};
-use crate::validate::{Checker, Issue};
+use crate::stages::kind::{CostCtx, Work};
+use crate::stages::{Kind, decode};
 
-/// Which solver runs the pile.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Method {
-    /// Soft-contact DEM (`src/dem`).
-    Dem,
-    /// Contact Dynamics (`src/cd`).
-    Cd,
-    /// GIMP MPM, Mohr–Coulomb (`src/mpm`).
-    Mpm,
-}
-
-impl Method {
-    /// Label.
-    pub fn label(self) -> &'static str {
-        match self {
-            Method::Dem => "DEM",
-            Method::Cd => "CD",
-            Method::Mpm => "MPM",
-        }
-    }
-    pub(crate) fn color(self) -> usize {
-        match self {
-            Method::Dem => 0,
-            Method::Cd => 2,
-            Method::Mpm => 1,
-        }
-    }
-}
-
-/// Parameters of a `pile-run` stage.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RunParams {
-    /// Solver.
-    pub method: Method,
-    /// Initial velocity profile (D19).
-    pub profile: Profile,
-    /// Input energies E_0 [m g d per grain] (D21).
-    pub energies_mgd: Vec<f64>,
-    /// DEM parameters (method `dem`).
-    pub dem: DemParams,
-    /// DEM softening (must match the prep's: the pile was settled with it).
-    pub stiffness_factor: f64,
-    /// CD parameters (method `cd`); `cd.dt` is the largest step of the adaptive rule.
-    pub cd: CdParams,
-    /// MPM parameters (method `mpm`). Friction angle and base friction come from the CD
-    /// shear test's μ_min (input `shear`) unless `mpm_friction` is set.
-    pub mpm: MpmParams,
-    /// MPM pile geometry and geostatic stage.
-    pub mpm_pile: MpmPileSpec,
-    /// Override of the MPM friction coefficient (material tan φ and base/wall) [-].
-    pub mpm_friction: Option<f64>,
-    /// Base (and left-wall) friction alone, the material's φ unchanged (fig 4.41's μ_s) [-].
-    /// Left out of the canonical params when absent.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mpm_base_friction: Option<f64>,
-    /// MPM bulk density = grain density × the DEM pile's packing fraction (true), else
-    /// `mpm.material.density`.
-    pub mpm_density_from_packing: bool,
-    /// Grain density of the DEM pile [kg/m³] (for the MPM bulk density).
-    pub grain_density: f64,
-    /// MPM front (D01): points of one mass are closer than this many cells (0: D01's
-    /// 1.5 × the initial point spacing).
-    pub mpm_link_cells: f64,
-    /// Stopping rule.
-    pub stop: StopRule,
-    /// Snapshots of one run (figs 4.24, 4.31, 4.32, 4.42, 4.43), taken only when asked.
-    pub snapshots: Option<SnapSpec>,
-}
-
-/// Which run to photograph and when (leave-out: no frames are taken without this).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SnapSpec {
-    /// The run's input energy [mgd per grain]: one of `energies_mgd`.
-    pub e0_mgd: f64,
-    /// Instants [√(d/g)], ascending multiples of `stop.sample_every`; the run does not stop
-    /// before the last.
-    pub times: Vec<f64>,
-    /// End that run at the last frame (a frames-only run: its summary row is partial and
-    /// marked `stopped` = 0; the stopping-rule check skips it). Default: run to rest.
-    #[serde(default)]
-    pub end_after_last: bool,
-}
-
-impl Default for RunParams {
-    fn default() -> Self {
-        RunParams {
-            method: Method::Dem,
-            profile: Profile::Gradient,
-            energies_mgd: vec![],
-            dem: DemParams::default(),
-            stiffness_factor: 1.0,
-            cd: CdParams::default(),
-            mpm: MpmParams::default(),
-            mpm_pile: MpmPileSpec::default(),
-            mpm_friction: None,
-            mpm_base_friction: None,
-            mpm_density_from_packing: true,
-            grain_density: 2600.0,
-            mpm_link_cells: 2.0,
-            stop: StopRule::default(),
-            snapshots: None,
-        }
-    }
-}
-
-impl Validate for RunParams {
-    fn validate(&self) -> Vec<Issue> {
-        let mut c = Checker::new("");
-        if self.energies_mgd.is_empty() {
-            c.fail(
-                "energies_mgd",
-                "[]",
-                "a non-empty list of input energies E_0 > 0 [m g d per grain]",
-            );
-        }
-        for (i, e) in self.energies_mgd.iter().enumerate() {
-            c.check(
-                e.is_finite() && *e > 0.0,
-                &format!("energies_mgd[{i}]"),
-                e,
-                "a finite input energy E_0 > 0 [m g d per grain]",
-            );
-        }
-        let s = &self.stop;
-        c.positive("stop.sample_every", s.sample_every);
-        c.non_negative("stop.t_min", s.t_min);
-        c.check(
-            s.t_max.is_finite() && s.t_max > s.t_min.max(crate::analysis::pile::T1_UNITS),
-            "stop.t_max",
-            s.t_max,
-            "> stop.t_min and > t_1 = 7.5 √(d/g)",
-        );
-        c.positive("stop.ek_ratio", s.ek_ratio);
-        c.non_negative("stop.still_time", s.still_time);
-        c.positive("stop.still_tol", s.still_tol);
-        if let Some(sn) = &self.snapshots {
-            c.check(
-                self.energies_mgd
-                    .iter()
-                    .any(|e| (e - sn.e0_mgd).abs() <= 1e-9 * e.abs()),
-                "snapshots.e0_mgd",
-                sn.e0_mgd,
-                "one of energies_mgd (the run whose frames are taken)",
-            );
-            c.check(
-                !sn.times.is_empty(),
-                "snapshots.times",
-                "[]",
-                "a non-empty list of instants [√(d/g)]",
-            );
-            for (i, t) in sn.times.iter().enumerate() {
-                let q = t / s.sample_every;
-                let ok = t.is_finite()
-                    && *t >= 0.0
-                    && *t <= s.t_max
-                    && (q - q.round()).abs() < 1e-9
-                    && (i == 0 || *t > sn.times[i - 1]);
-                c.check(ok, &format!("snapshots.times[{i}]"), t, "ascending instants in [0, stop.t_max] √(d/g), multiples of stop.sample_every (frames are taken at sample instants)");
-            }
-        }
-        match self.method {
-            Method::Dem => check_dem_pile(&self.dem, self.stiffness_factor, &mut c),
-            Method::Cd => {
-                for i in self.cd.validate() {
-                    c.fail(&format!("cd.{}", i.key), i.value, &i.allowed);
-                }
-            }
-            Method::Mpm => {
-                for i in self.mpm.validate() {
-                    c.fail(&format!("mpm.{}", i.key), i.value, &i.allowed);
-                }
-                if c.issues.is_empty() {
-                    // "the material point spacing is adopted to be the same as the mean
-                    // grain diameter": a spacing far from d̄ cannot represent the pile.
-                    let sp = self.mpm.spacing();
-                    c.check(
-                        sp >= 0.2 * D_NORM && sp <= 3.0 * D_NORM,
-                        "mpm.cell_size",
-                        format!("{} m with ppc {} (point spacing {:.2} mm)", self.mpm.cell_size, self.mpm.ppc, sp * 1e3),
-                        "a point spacing h/√PPC in [0.2, 3] d̄ = [0.49, 7.4] mm (chapter: spacing ≈ d̄; its PPC study reaches 6.25 mm = 2.55 d̄ at h = 0.0125 m, PPC 4)",
-                    );
-                    c.check(
-                        self.mpm.ppc <= 100,
-                        "mpm.ppc",
-                        self.mpm.ppc,
-                        "a perfect square in 1..=100 (the chapter's study: 4–100)",
-                    );
-                }
-                if let Some(mu) = self.mpm_friction {
-                    c.check(
-                        mu.is_finite() && mu > 0.0 && mu < 2.0,
-                        "mpm_friction",
-                        mu,
-                        "a friction coefficient in (0, 2)",
-                    );
-                }
-                if let Some(mu) = self.mpm_base_friction {
-                    c.check(
-                        mu.is_finite() && mu > 0.0 && mu <= 1.0,
-                        "mpm_base_friction",
-                        mu,
-                        "a base friction coefficient in (0, 1] (the chapter's sweep: 0.1–0.4)",
-                    );
-                }
-                c.check(
-                    self.mpm_pile.domain_length_l0 > 1.0,
-                    "mpm_pile.domain_length_l0",
-                    self.mpm_pile.domain_length_l0,
-                    "> 1 (the grid must hold the run-out)",
-                );
-                c.check(
-                    p_ok(self.mpm_link_cells),
-                    "mpm_link_cells",
-                    self.mpm_link_cells,
-                    "0 (D01: 1.5 × point spacing) or a distance in cells in (0, 4]",
-                );
-                c.in_open(
-                    "mpm_pile.geostatic_friction_deg",
-                    self.mpm_pile.geostatic_friction_deg,
-                    0.0,
-                    90.0,
-                );
-            }
-        }
-        c.issues
-    }
-}
-
-fn p_ok(v: f64) -> bool {
-    v.is_finite() && (0.0..=4.0).contains(&v)
-}
+use crate::engines::Method;
 
 struct PileInput {
     state: State,
@@ -479,14 +246,7 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
     }
     let names = [
-        "e0_mgd",
-        "t",
-        "l_d",
-        "h_d",
-        "ek_over_e0",
-        "ekx_over_e0",
-        "eky_over_e0",
-        "erot_over_e0",
+        "e0_mgd", "t", "l_d", "h_d", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0",
     ];
     out.table("series", frame(names.iter().cloned().zip(cols).collect())?);
     if let Some(sn) = &p.snapshots {
@@ -695,12 +455,98 @@ fn snapshot_outputs(
     Ok(())
 }
 
+/// Pre-flight table of the stage's method.
+fn explain(v: &Value) -> String {
+    match v.get("method").and_then(Value::as_str).and_then(Method::parse) {
+        Some(Method::Mpm) => crate::stages::column::mpm_common::explain_mpm(v),
+        Some(Method::Cd) => "CD: no stability limit on Δt (contact dynamics is implicit in the contact forces); \
+                             `cd.dt` is the largest step of the adaptive rule"
+            .into(),
+        _ => explain_pile(v),
+    }
+}
+
 /// Kind `pile-run`.
 pub const RUN_KIND: Kind = Kind {
     name: "pile-run",
     version: 4,
     about: "pile under horizontal excitation (DEM, CD or MPM) over a list of input energies: run-out, duration, energies, decay (D01, D10–D16)",
-    params: typed::<RunParams>,
+    params,
     run: run_run,
-    explain: Some(explain_pile),
+    explain: Some(explain),
+    // The MPM takes its friction from the CD shear test unless `mpm_friction` is set.
+    roles: crate::stages::kind::Roles::ByMethod(&[
+        (Method::Dem, &[("pile", crate::pipeline::context::Arity::One)]),
+        (Method::Cd, &[("pile", crate::pipeline::context::Arity::One)]),
+        (
+            Method::Mpm,
+            &[
+                ("pile", crate::pipeline::context::Arity::One),
+                ("shear", crate::pipeline::context::Arity::OptionalOne),
+            ],
+        ),
+    ]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "cd_dt_max_s", "dt_s", "method_code", "mpm_base_friction", "mpm_density", "mpm_friction",
+            "mpm_friction_deg", "mpm_geostatic_time_s", "mpm_points", "runs", "snap_cavity_last_d2",
+            "snap_cavity_last_over_peak", "snap_cavity_peak_d2", "snap_e0_mgd", "snap_sigma_yy_points",
+            "snap_sigma_yy_rel_err", "snap_vx_max_m_s", "snap_vx_triangle_m_s", "snap_wall_gap_max_d",
+            "stiffness_factor",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "series",
+                columns: &[
+                    "e0_mgd", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0", "h_d", "l_d", "t",
+                ],
+            },
+            crate::stages::kind::TableDecl {
+                name: "snapshot_metrics",
+                columns: &["cavity_d2", "front_d", "k", "t_over_sqrt_d_g", "wall_gap_d"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "snapshots",
+                columns: &[
+                    "half_m", "k", "sigma_yy_pa", "speed_m_s", "t_over_sqrt_d_g", "vx_m_s", "vy_m_s", "x_m", "y_m",
+                ],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "dl", "e0_check", "e0_j", "e0_mgd", "ekx0_mgd", "eky_peak", "l0_d", "lf_d", "steps", "stopped",
+                    "t_end", "tau", "tf", "tfp", "vs",
+                ],
+            },
+        ],
+        measurements: &["cavity-not-filled", "cavity-partly-filled", "wall-contact"],
+    },
+    reads: None,
+    cost: Some(cost),
 };
+
+/// Cost: every energy runs to `stop.t_max` at most (in √(d/g); the same d̄ at both
+/// profiles): an upper bound, as the runs stop earlier by the stopping rule.
+fn cost(c: &CostCtx) -> Option<Work> {
+    let p: RunParams = c.typed()?;
+    let grains = prep_grains((c.inputs)("pile").first()?)?;
+    let time = p.energies_mgd.len() as f64 * p.stop.t_max;
+    let f = |g: (&'static str, f64), s: (&'static str, f64)| Some((vec![g, s], false));
+    match p.method {
+        Method::Dem => f(
+            ("grains", grains),
+            ("steps", p.dem.steps_per_second(p.stiffness_factor) * time),
+        ),
+        // Adaptive step below cd.dt: cd.dt bounds the step count from below.
+        Method::Cd => f(("grains", grains), ("steps", time / p.cd.dt)),
+        // Points fill the pile's area (∝ grains) at ppc per h²; the CFL step ∝ h.
+        Method::Mpm => {
+            let (h, ppc) = (p.mpm.cell_size, p.mpm.ppc as f64);
+            let courant = match p.mpm.step {
+                crate::mpm::params::StepRule::Cfl { courant, .. } => courant,
+                _ => 1.0,
+            };
+            f(("points", grains * ppc / (h * h)), ("steps", time / (courant * h)))
+        }
+    }
+}

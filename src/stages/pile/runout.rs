@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::run::Method;
+use crate::engines::Method;
 use crate::fit::{PowerFit, two_regimes};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
@@ -367,4 +367,19 @@ pub const RUNOUT_KIND: Kind = Kind {
     params: typed::<RunoutParams>,
     run: run_runout,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("runs", crate::pipeline::context::Arity::Many)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "dem_dl_break_mgd", "dem_tf_low_mean", "dem_tf_low_spread", "mpm_dl_break_mgd", "split_mgd",
+        ],
+        tables: &[crate::stages::kind::TableDecl {
+            name: "table",
+            columns: &[
+                "exponent", "exponent_se", "method", "points", "prefactor", "quantity", "range",
+            ],
+        }],
+        measurements: &["alpha-lf", "dem-tf-flat", "vs-high", "vs-low"],
+    },
+    reads: None,
+    cost: None,
 };

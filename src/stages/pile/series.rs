@@ -179,13 +179,7 @@ fn read_runs(ctx: &StageCtx, labels: &[String]) -> anyhow::Result<Vec<Run>> {
         );
         let se = col_f64(&ser, "e0_mgd")?;
         let cols: Vec<Vec<f64>> = [
-            "t",
-            "l_d",
-            "h_d",
-            "ek_over_e0",
-            "ekx_over_e0",
-            "eky_over_e0",
-            "erot_over_e0",
+            "t", "l_d", "h_d", "ek_over_e0", "ekx_over_e0", "eky_over_e0", "erot_over_e0",
         ]
         .iter()
         .map(|c| col_f64(&ser, c))
@@ -293,20 +287,8 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 
     // Per-sample series.
     let names = [
-        "e0_mgd",
-        "high",
-        "t",
-        "t_prime",
-        "t_prime_over_tau",
-        "l_d",
-        "dl_t",
-        "ek_mgd",
-        "ek_over_e0",
-        "ekx_over_e0",
-        "eky_over_e0",
-        "erot_over_e0",
-        "ekx_over_ekx0",
-        "eky_hp",
+        "e0_mgd", "high", "t", "t_prime", "t_prime_over_tau", "l_d", "dl_t", "ek_mgd", "ek_over_e0", "ekx_over_e0",
+        "eky_over_e0", "erot_over_e0", "ekx_over_ekx0", "eky_hp",
     ];
     let mut sc: Vec<Vec<f64>> = vec![Vec::new(); lab_cols.len() + names.len()];
     for (r, d) in runs.iter().zip(&der) {
@@ -699,4 +681,55 @@ pub const KIND: Kind = Kind {
     params: typed::<SeriesParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("runs", crate::pipeline::context::Arity::Many)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "beta1", "beta2", "decay_exp_rms", "decay_spread_t_over_tau", "decay_spread_t_prime",
+            "ek_spread_before_t1", "ek_spread_high", "ek_spread_low", "ek_spread_t1_3t1", "eky_hp_rms_low_max_ppc",
+            "eky_hp_rms_low_min_ppc", "eq413_exponent", "erot_over_ek_max", "erot_share_max",
+            "friction_exponent_spread", "friction_prefactor_ratio", "high_runs", "k", "k_se", "mesh_dl_diff",
+            "ppc_conv_err", "ppc_ekx_diff_low", "ppc_tf_err", "runs", "split_mgd", "t1", "t1_measured_high",
+            "t1_measured_low", "t1_measured_mean", "t_dissipated_max", "t_free_fall", "tf_ratio_01_02",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "friction_fits",
+                columns: &["exponent", "exponent_se", "mpm_base_friction", "points", "prefactor"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "high",
+                columns: &[
+                    "dl", "e0_mgd", "ekx0_mgd", "eky_hp_rms", "eky_peak", "erot_over_ek_max", "erot_share", "high",
+                    "mpm_base_friction", "mpm_cell_size", "mpm_ppc", "t1_measured", "t_dissipated", "t_eky_peak",
+                    "t_free_fall", "tau", "tf", "tfp", "tfp_over_tau",
+                ],
+            },
+            crate::stages::kind::TableDecl {
+                name: "series",
+                columns: &[
+                    "dl_t", "e0_mgd", "ek_mgd", "ek_over_e0", "ekx_over_e0", "ekx_over_ekx0", "eky_hp", "eky_over_e0",
+                    "erot_over_e0", "high", "l_d", "mpm_base_friction", "mpm_cell_size", "mpm_ppc", "t", "t_prime",
+                    "t_prime_over_tau",
+                ],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "dl", "e0_mgd", "ekx0_mgd", "eky_hp_rms", "eky_peak", "erot_over_ek_max", "erot_share", "high",
+                    "mpm_base_friction", "mpm_cell_size", "mpm_ppc", "t1_measured", "t_dissipated", "t_eky_peak",
+                    "t_free_fall", "tau", "tf", "tfp", "tfp_over_tau",
+                ],
+            },
+        ],
+        measurements: &[
+            "beta1-tfp", "beta2-tau", "decay-collapse", "ek-collapse-before-t1", "ek-dissipated",
+            "ek-diverge-after-t1", "ek-low-collapse", "eky-peak-decreasing", "eq4-13-exponent", "erot-negligible",
+            "friction-dl-decreases", "friction-exponent-weak", "friction-saturation", "friction-tau-decreases",
+            "friction-tf-factor-4", "k", "mesh-1pct", "ppc-converged", "ppc-ekx-identical-low", "ppc-eky-noise",
+            "ppc-eky-peak-high", "ppc-high-longer", "ppc-low-longer", "ppc-tf-unaffected", "t1-both-regimes",
+            "t1-free-fall", "tau-grows",
+        ],
+    },
+    reads: None,
+    cost: None,
 };

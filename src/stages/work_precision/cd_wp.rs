@@ -1,4 +1,4 @@
-//! Kind `cd-work-precision`: the CD pile impact's run-out and dissipated energy against
+//! `work-precision`, `method: cd` ([`super::study`]): the CD pile impact's run-out and dissipated energy against
 //! time step and NLGS tolerance, vs wall time (ensembles of perturbed starts).
 //!
 //! Every CD kind takes `cd` (the solver's parameter schema, `stages/cd-solver.yaml`).
@@ -8,8 +8,9 @@ use serde::{Deserialize, Serialize};
 use crate::cd::CdParams;
 use crate::pipeline::context::{Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
+use crate::stages::Validate;
 use crate::stages::calib::cd_shear::check_cd;
-use crate::stages::{Kind, Validate, decode, typed};
+use crate::stages::kind::{CostCtx, Work};
 use crate::validate::{Checker, Issue};
 
 /// One work-precision variant.
@@ -53,7 +54,7 @@ fn single(e: &WpEnsemble) -> bool {
     *e == WpEnsemble::default()
 }
 
-/// Parameters of a `cd-work-precision` stage.
+/// Parameters of a `work-precision` stage with `method: cd`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WpParams {
@@ -153,11 +154,10 @@ fn mean_sd(v: &[f64]) -> (f64, f64) {
     (m, sd)
 }
 
-fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
+pub(super) fn run(ctx: &StageCtx, p: WpParams) -> anyhow::Result<Output> {
     use crate::cd::pile::{ImpactResult, impact, settled_deposit};
     use rand::{RngExt, SeedableRng};
     use rayon::prelude::*;
-    let p: WpParams = decode(ctx)?;
     let (state, walls) = settled_deposit(&p.deposit, &p.cd, p.settle_time)?;
     let width = p.deposit.width();
     let members = p.ensemble.members.max(1);
@@ -354,12 +354,12 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     Ok(out)
 }
 
-/// Kind `cd-work-precision`.
-pub const WP_KIND: Kind = Kind {
-    name: "cd-work-precision",
-    version: 3,
-    about: "work-precision of CD: pile impact run-out and dissipated energy against time step and NLGS tolerance, vs wall time",
-    params: typed::<WpParams>,
-    run: run_wp,
-    explain: None,
-};
+/// Cost (work-precision): the deposit's grains; steps summed over the variants.
+pub(super) fn cost(p: &WpParams, _: &CostCtx) -> Option<Work> {
+    let t = p.settle_time + p.run_time;
+    let steps: f64 = p.variants.iter().map(|x| t / x.dt).sum();
+    Some((
+        vec![("grains", (p.deposit.ncol * p.deposit.nrow) as f64), ("steps", steps)],
+        false,
+    ))
+}

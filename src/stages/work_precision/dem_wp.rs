@@ -1,4 +1,4 @@
-//! Kind `dem-work-precision`: DEM column run-out error against wall time over stiffness
+//! `work-precision`, `method: dem` ([`super::study`]): DEM column run-out error against wall time over stiffness
 //! and time-step fraction (ensembles of perturbed starts, re-settled per setting).
 
 use serde::{Deserialize, Serialize};
@@ -8,11 +8,13 @@ use crate::dem::DemParams;
 use crate::dem::column::{CollapseParams, Variant, work_precision};
 use crate::pipeline::context::{Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
+use crate::stages::Validate;
 use crate::stages::column::dem_common::{check_dem, column_from};
-use crate::stages::{Kind, Validate, decode, typed};
+use crate::stages::column::dem_prep::PrepParams;
+use crate::stages::kind::{CostCtx, Work};
 use crate::validate::{Checker, Issue};
 
-/// Parameters of a `dem-work-precision` stage.
+/// Parameters of a `work-precision` stage with `method: dem`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WpParams {
@@ -75,18 +77,11 @@ impl Validate for WpParams {
     }
 }
 
-fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
-    let mut p: WpParams = decode(ctx)?;
+pub(super) fn run(ctx: &StageCtx, mut p: WpParams) -> anyhow::Result<Output> {
     crate::stages::calib::dem_calibration::apply_calibration(ctx, &mut p.dem)?;
     let col = column_from(ctx.input("column")?, p.dem.density)?;
     let mut rows = work_precision(
-        &col,
-        &p.dem,
-        &p.run,
-        &p.variants,
-        p.ensemble.members,
-        p.ensemble.perturbation_m,
-        p.ensemble.seed,
+        &col, &p.dem, &p.run, &p.variants, p.ensemble.members, p.ensemble.perturbation_m, p.ensemble.seed,
     )?;
     let mut grains: Vec<f64> = vec![col.state.len() as f64; rows.len()];
     // Grain-count knob: one variant on the coarser column, its error against the reference
@@ -271,12 +266,17 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     Ok(out)
 }
 
-/// Kind `dem-work-precision`.
-pub const WP_KIND: Kind = Kind {
-    name: "dem-work-precision",
-    version: 4,
-    about: "DEM column run-out error vs wall time over stiffness and time-step fraction (ensembles, re-settled per setting)",
-    params: typed::<WpParams>,
-    run: run_wp,
-    explain: None,
-};
+/// Cost: grains ∝ the input column's area; steps summed over the variants, times the
+/// ensemble's members.
+pub(super) fn cost(p: &WpParams, c: &CostCtx) -> Option<Work> {
+    let area = c.input::<PrepParams>("column")?.area_m2;
+    let steps: f64 = p
+        .variants
+        .iter()
+        .map(|x| x.stiffness_factor.sqrt() / x.dt_fraction)
+        .sum();
+    Some((
+        vec![("grains", area), ("steps", p.ensemble.members as f64 * steps)],
+        false,
+    ))
+}

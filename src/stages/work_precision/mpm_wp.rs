@@ -1,4 +1,4 @@
-//! Kind `mpm-work-precision`: MPM column run-out error against wall time over PPC × cell
+//! `work-precision`, `method: mpm` ([`super::study`]): MPM column run-out error against wall time over PPC × cell
 //! size × Courant number (and the alternative shape functions and update scheme).
 
 use serde::{Deserialize, Serialize};
@@ -8,8 +8,10 @@ use crate::mpm::column::{CollapseOptions, CollapseResult, ColumnSpec, collapse};
 use crate::mpm::{MpmParams, StepRule};
 use crate::pipeline::context::{Output, StageCtx, frame};
 use crate::report::plot::{Chart, Series, Style, footer};
-use crate::stages::column::mpm_common::{calibrate, check_mpm, explain_mpm};
-use crate::stages::{Kind, Validate, decode, typed};
+use crate::stages::Validate;
+use crate::stages::column::mpm_common::{calibrate, check_mpm};
+use crate::stages::column::mpm_common::{cfl, points};
+use crate::stages::kind::{CostCtx, Work};
 use crate::validate::{Checker, Issue};
 
 /// One extra work-precision setting: a point of the PPC × cell × Courant grid run with
@@ -58,7 +60,7 @@ impl Default for WpEnsemble {
     }
 }
 
-/// Parameters of an `mpm-work-precision` stage.
+/// Parameters of a `work-precision` stage with `method: mpm`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct WorkPrecisionParams {
@@ -192,9 +194,7 @@ fn perturbed_collapse(
         None
     } else {
         Some(crate::mpm::geostatic::run(
-            &mut col.solver,
-            &mut col.state,
-            col.spec.h0,
+            &mut col.solver, &mut col.state, col.spec.h0,
         )?)
     };
     let amp = e.perturbation * (mp.gravity * col.spec.h0).sqrt();
@@ -237,11 +237,10 @@ fn setting_label(s: &WpSetting) -> String {
     l
 }
 
-fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
+pub(super) fn run(ctx: &StageCtx, mut p: WorkPrecisionParams) -> anyhow::Result<Output> {
     use crate::mpm::Scheme;
     use crate::mpm::params::Shape;
     use rayon::prelude::*;
-    let mut p: WorkPrecisionParams = decode(ctx)?;
     let note = calibrate(ctx, &mut p.mpm, p.use_dem_calibration)?;
     let spec = ColumnSpec::from_area(p.a, p.area_m2);
     let (shape0, scheme0) = (p.mpm.shape, p.mpm.scheme);
@@ -511,12 +510,17 @@ fn run_wp(ctx: &StageCtx) -> anyhow::Result<Output> {
     Ok(out)
 }
 
-/// Kind `mpm-work-precision`.
-pub const WP_KIND: Kind = Kind {
-    name: "mpm-work-precision",
-    version: 4,
-    about: "MPM column run-out error vs wall time over PPC × cell size × Courant number",
-    params: typed::<WorkPrecisionParams>,
-    run: run_wp,
-    explain: Some(explain_mpm),
-};
+/// Cost (work-precision): points × steps summed over the sweep and its reference.
+pub(super) fn cost(p: &WorkPrecisionParams, _: &CostCtx) -> Option<Work> {
+    let mut total = 0.0;
+    for &h in &p.cell_sizes {
+        for &n in &p.ppc {
+            for &k in &p.courants {
+                total += points(p.area_m2, n as f64, h) * cfl(&p.mpm, k, h);
+            }
+        }
+    }
+    let (n, h, k) = p.reference;
+    total += points(p.area_m2, n as f64, h) * cfl(&p.mpm, k, h);
+    Some((vec![("points×steps of the sweep", total)], false))
+}

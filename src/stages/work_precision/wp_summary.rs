@@ -1,6 +1,6 @@
 //! Kind `wp-summary`: the work-precision atlas (issue 12). Reads every work-precision
-//! stage through the DAG (role `sources`: `dem-work-precision`, `mpm-work-precision`,
-//! `cd-work-precision`, recognised by their table columns) and writes
+//! stage through the DAG (role `sources`: `work-precision` stages of any method,
+//! recognised by their table columns) and writes
 //! - `table`: one row per (method, setting, quantity): the knobs, the quantity, its
 //!   relative error against the method's finest setting (the stage's own reference), the
 //!   error's standard error where the stage ran an ensemble (DEM: members from perturbed
@@ -516,6 +516,39 @@ pub const KIND: Kind = Kind {
     params: typed::<SummaryParams>,
     run,
     explain: None,
+    roles: crate::stages::kind::Roles::Fixed(&[("sources", crate::pipeline::context::Arity::Many)]),
+    outputs: crate::stages::kind::Outputs {
+        scalars: &[
+            "cd_profile_error", "cd_profile_error_se", "dem_profile_error", "dem_profile_error_se",
+            "mpm_profile_error", "mpm_profile_error_se", "orders_sound", "orders_tested",
+        ],
+        tables: &[
+            crate::stages::kind::TableDecl {
+                name: "orders",
+                columns: &[
+                    "knob", "levels", "method", "observed_order", "other_knobs", "quantity", "ratio", "verdict",
+                ],
+            },
+            crate::stages::kind::TableDecl {
+                name: "profile",
+                columns: &["method", "quantity", "rel_error", "rel_error_se", "setting", "wall_s"],
+            },
+            crate::stages::kind::TableDecl {
+                name: "table",
+                columns: &[
+                    "method", "profile", "quantity", "reference", "rel_error", "rel_error_se", "setting", "stage",
+                    "value", "value_se",
+                ],
+            },
+            crate::stages::kind::TableDecl {
+                name: "timing",
+                columns: &["method", "quantity", "setting", "wall_s"],
+            },
+        ],
+        measurements: &[],
+    },
+    reads: None,
+    cost: None,
 };
 
 /// Relative error of an ensemble mean against the reference ensemble's mean, and its
