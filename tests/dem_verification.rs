@@ -124,7 +124,7 @@ fn quad_coeff(t: &[Real], y: &[Real]) -> Real {
 fn incline_45_sliding_frictionless() {
     let (a, alpha, nn, ss) = incline(0.0);
     eprintln!("phi=0: a/g={a:.4} alpha r/g={alpha:.4} N={nn:.4} S={ss:.4}");
-    assert!((a - 0.7071).abs() < 0.002);
+    assert!((a - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.002);
     assert!(alpha.abs() < 1e-6);
     assert!((nn - 1.0).abs() < 0.01);
     assert!(ss < 1e-9);

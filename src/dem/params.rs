@@ -47,7 +47,9 @@ pub fn damping_ratio(e: Real, model: DampingModel) -> Real {
             if e >= 1.0 {
                 return 0.0;
             }
-            // ε(ζ) decreases monotonically on (0, 1/√2): bisection
+            // ε(ζ) decreases monotonically on (0, 1/√2): bisection on a bracket just inside
+            // it (the literal is the bracket the results were computed with, not √½).
+            #[allow(clippy::approx_constant)]
             let (mut lo, mut hi) = (0.0, 0.7071);
             for _ in 0..80 {
                 let mid = 0.5 * (lo + hi);

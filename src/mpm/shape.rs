@@ -129,7 +129,9 @@ mod tests {
     use crate::mpm::params::{MpmParams, Shape};
 
     /// Positions (in cells) across a few cells: exact nodes, cell midpoints, the GIMP region
-    /// boundaries for l = ¼ and irregular offsets.
+    /// boundaries for l = ¼ and irregular offsets (0.3141 and 0.7071 are arbitrary offsets,
+    /// not π/10 and √½).
+    #[allow(clippy::approx_constant)]
     fn positions() -> Vec<Real> {
         let mut u = Vec::new();
         for i in 2..5 {

@@ -176,8 +176,11 @@ pub struct CostCtx<'a> {
     /// The stage's canonical params.
     pub params: &'a Value,
     /// The stages feeding a role, in input order.
-    pub inputs: Box<dyn Fn(&str) -> Vec<CostCtx<'a>> + 'a>,
+    pub inputs: InputsOf<'a>,
 }
+
+/// The stages feeding a role, in input order, as [`CostCtx`]s.
+pub type InputsOf<'a> = Box<dyn Fn(&str) -> Vec<CostCtx<'a>> + 'a>;
 
 impl CostCtx<'_> {
     /// The stage's params as its typed struct (None when they do not decode).
