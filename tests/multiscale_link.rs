@@ -20,8 +20,14 @@ fn changed(sets: &[&str]) -> BTreeSet<String> {
         .collect()
 }
 
-/// Figures, fits and comparisons drawn from a stage: they change with it by design.
+/// Figures, fits and comparisons drawn from a stage: they change with it by design. A stage
+/// of a drawing kind (`plot`, `snapshot`) is a view whatever its id.
 fn is_view(id: &str) -> bool {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.yaml");
+    let p = load(&root, "quick", &[]).unwrap();
+    if p.get(id).is_some_and(|s| s.kind == "plot" || s.kind == "snapshot") {
+        return true;
+    }
     id.starts_with("fig4-") || id.starts_with("fit-") || id.ends_with("-claims") || id == "wp-summary"
         // analyses of the column runs' tables (issue 9): statistics over the sweeps
         || id == "inertial-column" || id == "front-jumps"
