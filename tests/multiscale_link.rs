@@ -23,9 +23,17 @@ fn changed(sets: &[&str]) -> BTreeSet<String> {
 /// Figures, fits and comparisons drawn from a stage: they change with it by design. A stage
 /// of a drawing kind (`plot`, `snapshot`) is a view whatever its id.
 fn is_view(id: &str) -> bool {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.yaml");
-    let p = load(&root, "quick", &[]).unwrap();
-    if p.get(id).is_some_and(|s| s.kind == "plot" || s.kind == "snapshot") {
+    static DRAWN: std::sync::OnceLock<BTreeSet<String>> = std::sync::OnceLock::new();
+    let drawn = DRAWN.get_or_init(|| {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipeline.yaml");
+        let p = load(&root, "quick", &[]).unwrap();
+        p.stages
+            .iter()
+            .filter(|s| s.kind == "plot" || s.kind == "snapshot")
+            .map(|s| s.id.clone())
+            .collect()
+    });
+    if drawn.contains(id) {
         return true;
     }
     id.starts_with("fig4-") || id.starts_with("fit-") || id.ends_with("-claims") || id == "wp-summary"

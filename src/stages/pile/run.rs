@@ -550,3 +550,19 @@ fn cost(c: &CostCtx) -> Option<Work> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    /// `run --explain` of a CD or MPM pile printed the DEM's pre-flight table.
+    #[test]
+    fn explain_follows_the_method() {
+        let dem = super::explain(&json!({ "method": "dem" }));
+        let cd = super::explain(&json!({ "method": "cd" }));
+        let mpm = super::explain(&json!({ "method": "mpm" }));
+        assert!(cd.starts_with("CD:"), "{cd}");
+        assert_ne!(mpm, dem);
+        assert_ne!(cd, dem);
+    }
+}

@@ -273,3 +273,22 @@ pub(super) fn params(v: &Value) -> Result<Value, Vec<ParamProblem>> {
         Err(problems)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::params;
+    use serde_json::json;
+
+    /// The cache key of a DEM pile holds no other method's block: before, every default of
+    /// the CD and MPM solvers was part of it, so changing one re-ran the DEM piles.
+    #[test]
+    fn canonical_params_hold_only_the_stage_method_keys() {
+        let c = params(&json!({ "method": "dem", "energies_mgd": [10.0] })).unwrap();
+        for k in ["cd", "mpm", "mpm_pile", "grain_density", "mpm_link_cells"] {
+            assert!(c.get(k).is_none(), "{k} in the canonical params of a DEM pile");
+        }
+        assert!(c.get("dem").is_some() && c.get("stiffness_factor").is_some());
+        let c = params(&json!({ "method": "mpm", "energies_mgd": [10.0] })).unwrap();
+        assert!(c.get("dem").is_none() && c.get("cd").is_none() && c.get("mpm").is_some());
+    }
+}
