@@ -14,6 +14,7 @@ use crate::analysis::inertial::Stats;
 use crate::pipeline::context::{Output, StageCtx};
 
 use super::Method;
+use super::preflight::Preflight;
 
 /// One energy curve of the run's energy chart: label, palette index, E/E_0 per sample.
 pub struct EnergyCurve {
@@ -102,7 +103,7 @@ pub struct Collapsed<'a> {
 }
 
 /// A method that runs the column collapse.
-pub trait ColumnEngine {
+pub trait ColumnEngine: Preflight {
     /// Run the collapse of the stage's scene; publish the method's own outputs in `out`.
     fn collapse<'a>(&'a self, ctx: &'a StageCtx, out: &mut Output) -> anyhow::Result<Collapsed<'a>>;
 }

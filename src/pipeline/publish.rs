@@ -92,6 +92,8 @@ pub struct Measured<'a> {
     pub profile: &'a str,
     /// Method → its measured error at the profile's setting.
     pub errors: &'a crate::report::measured::ProfileErrors,
+    /// The atlas stage the errors come from: its own numbers are no method's simulation.
+    pub atlas: Option<&'a str>,
 }
 
 /// Publish the cache entry `key` as stage `id`'s set in `dir` (= `reports/<profile>`).
@@ -113,7 +115,11 @@ pub fn publish(
             .ok()
             .and_then(|b| serde_json::from_slice(&b).ok())
             .unwrap_or(Value::Null);
-        let ms = crate::report::measured::methods(&rec);
+        let ms = if m.atlas == Some(id) {
+            vec![]
+        } else {
+            crate::report::measured::methods(&rec)
+        };
         (
             crate::report::measured::footer_line(m.profile, &ms, m.errors),
             crate::report::measured::json_block(m.profile, &ms, m.errors),

@@ -616,25 +616,23 @@ fn publish_all(
             );
         }
     }
-    // Measured errors for the figures: this run's `wp-summary` entry, else its last table.
-    let errors = {
-        let done = |r: &&StageReport| matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. });
-        let from_run = p
-            .stages
-            .iter()
-            .filter(|s| s.kind == "wp-summary")
-            .find_map(|s| summary.stages.iter().filter(done).find(|r| r.id == s.id))
-            .and_then(|r| std::fs::read_to_string(proj.cache.entry_dir(&r.key).join("profile.csv")).ok());
-        let text = from_run.or_else(|| {
-            let id = p.stages.iter().find(|s| s.kind == "wp-summary")?.id.clone();
-            std::fs::read_to_string(dir.join(format!("{id}-profile.csv"))).ok()
-        });
-        text.map(|t| crate::report::measured::parse_profile_csv(&t))
-            .unwrap_or_default()
-    };
+    // Measured errors for the figures: the atlas stage's table (a kind that declares
+    // `atlas`), from this run's entry, else as last published.
+    let atlas = p.atlas();
+    let errors = atlas
+        .and_then(|(id, table)| {
+            let done = |r: &&StageReport| matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. });
+            let entry = summary.stages.iter().filter(done).find(|r| r.id == id);
+            entry
+                .and_then(|r| std::fs::read_to_string(proj.cache.entry_dir(&r.key).join(format!("{table}.csv"))).ok())
+                .or_else(|| std::fs::read_to_string(dir.join(format!("{id}-{table}.csv"))).ok())
+        })
+        .map(|t| crate::report::measured::parse_profile_csv(&t))
+        .unwrap_or_default();
     let measured = publish::Measured {
         profile: &p.profile,
         errors: &errors,
+        atlas: atlas.map(|a| a.0),
     };
     for r in &mut summary.stages {
         if matches!(r.outcome, Outcome::Cached | Outcome::Ran { .. }) {
@@ -679,7 +677,7 @@ fn publish_all(
             .then(|| crate::pipeline::load(&p.path, "paper", &[]).ok())
             .flatten()
             .and_then(|pp| crate::claims::evaluate_dir(&pp, &committed));
-        crate::report::html::write_index_of(&dir, &p.profile, &all, judged.as_deref(), paper.as_deref())?;
+        crate::report::html::write_index_of(&dir, &p.profile, &all, judged.as_deref(), paper.as_deref(), p.atlas())?;
     }
     Ok(())
 }

@@ -157,6 +157,17 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
+    /// The work-precision atlas: the first stage whose kind declares `atlas`, with the
+    /// table it publishes the profile's measured errors in.
+    pub fn atlas(&self) -> Option<(&str, &'static str)> {
+        self.stages.iter().find_map(|s| {
+            self.kinds
+                .get(s.kind.as_str())
+                .and_then(|k| k.atlas)
+                .map(|t| (s.id.as_str(), t))
+        })
+    }
+
     /// Stage by id.
     pub fn get(&self, id: &str) -> Option<&Stage> {
         self.index.get(id).map(|&i| &self.stages[i])

@@ -29,7 +29,7 @@ pub fn write_index(dir: &Path, profile: &str, judged: Option<&[Judged]>) -> std:
         .filter(|n| n.ends_with(".json") && !n.ends_with(".record.json"))
         .map(|n| n.trim_end_matches(".json").to_string())
         .collect();
-    write_index_of(dir, profile, &ids, judged, None)
+    write_index_of(dir, profile, &ids, judged, None, None)
 }
 
 /// Where a stage sits in the chapter: (section, order key). Figures and tables by their
@@ -81,10 +81,16 @@ const SECTIONS: [&str; 4] = [
 
 use super::measured::{methods, pct};
 
-/// The profile's measured error and cost per method, from the `wp-summary` stage's
-/// published `profile` table: method → (setting, error, standard error, wall time of one run).
-fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64, f64, f64)> {
-    let text = std::fs::read_to_string(dir.join("wp-summary-profile.csv")).unwrap_or_default();
+/// The profile's measured error and cost per method, from the atlas stage's published
+/// table (`atlas` = (stage id, table name)): method → (setting, error, standard error, wall
+/// time of one run).
+fn profile_errors(
+    dir: &Path,
+    atlas: Option<(&str, &str)>,
+) -> std::collections::BTreeMap<String, (String, f64, f64, f64)> {
+    let text = atlas
+        .and_then(|(id, table)| std::fs::read_to_string(dir.join(format!("{id}-{table}.csv"))).ok())
+        .unwrap_or_default();
     super::measured::parse_profile_csv(&text)
         .into_iter()
         .map(|(m, e)| (m, (e.setting, e.error, e.error_se, e.wall_s)))
@@ -98,13 +104,15 @@ fn profile_errors(dir: &Path) -> std::collections::BTreeMap<String, (String, f64
 /// run there, read from the `wp-summary` stage), every figure and table in chapter order
 /// (supporting stages after each section's figures), and the input and consistency
 /// checks listed apart at the end.
-/// `judged` is the ledger judged on this directory, `paper` on the committed paper results.
+/// `judged` is the ledger judged on this directory, `paper` on the committed paper results,
+/// `atlas` the work-precision atlas stage and the table of its measured errors.
 pub fn write_index_of(
     dir: &Path,
     profile: &str,
     ids: &[String],
     judged: Option<&[Judged]>,
     paper: Option<&[Judged]>,
+    atlas: Option<(&str, &str)>,
 ) -> std::io::Result<()> {
     let judged = judged.unwrap_or(&[]);
     let ids: Vec<String> = ids
@@ -121,7 +129,7 @@ pub fn write_index_of(
         })
         .collect();
     placed.sort();
-    let perr = profile_errors(dir);
+    let perr = profile_errors(dir, atlas);
     let mut h = String::new();
     let _ = write!(
         h,
@@ -184,7 +192,11 @@ pub fn write_index_of(
         }
         let caption = rec.get("caption").and_then(|c| c.as_str()).unwrap_or("");
         let has_svg = dir.join(format!("{id}.svg")).exists();
-        let ms = methods(&rec);
+        let ms = if atlas.map(|a| a.0) == Some(id.as_str()) {
+            vec![]
+        } else {
+            methods(&rec)
+        };
         let err_note: Vec<String> = ms
             .iter()
             .filter_map(|m| {
@@ -317,12 +329,16 @@ pub fn write_index_of(
     );
     h.push_str(&opening(judged, profile, paper));
     h.push_str("<h2 id=\"error-vs-run-time\">Error vs run time</h2>");
+    let atlas_id = esc(atlas.map(|a| a.0).unwrap_or("wp-summary"));
     if perr.is_empty() {
-        h.push_str("<p><small>The work-precision atlas (<code>wp-summary</code>) has not been run for this profile: no measured errors to show.</small></p>");
+        let _ = write!(
+            h,
+            "<p><small>The work-precision atlas (<code>{atlas_id}</code>) has not been run for this profile: no measured errors to show.</small></p>"
+        );
     } else {
         let _ = write!(
             h,
-            "<p><small>One row per figure: the measured error of its method at the {p} profile's setting (relative to that method's finest setting, ± standard error over an ensemble where one was run) and the wall time of one run at that setting, both read from <a href=\"#wp-summary\">wp-summary</a>; the last column is the wall time of the figure's own stage.</small></p>",
+            "<p><small>One row per figure: the measured error of its method at the {p} profile's setting (relative to that method's finest setting, ± standard error over an ensemble where one was run) and the wall time of one run at that setting, both read from <a href=\"#{atlas_id}\">{atlas_id}</a>; the last column is the wall time of the figure's own stage.</small></p>",
             p = esc(profile)
         );
     }

@@ -80,9 +80,6 @@ pub fn methods(rec: &Value) -> Vec<&'static str> {
         }
     };
     let kind = rec.get("kind").and_then(|v| v.as_str()).unwrap_or("");
-    if kind == "wp-summary" {
-        return vec![];
-    }
     // A study kind names its method (`method: dem`).
     if let Some(m) = rec.pointer("/params/method").and_then(|v| v.as_str()).and_then(engine) {
         return vec![m];

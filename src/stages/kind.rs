@@ -223,6 +223,10 @@ pub struct Kind {
     pub reads: Option<fn(&Value) -> Vec<Read>>,
     /// Its cost model for `plan --estimate`; None: bookkeeping (as measured).
     pub cost: Option<CostFn>,
+    /// The table of the profile's measured error per method that this kind publishes (the
+    /// work-precision atlas): the runner stamps every other stage's figures with it and
+    /// the report's "error vs run time" table reads it. None: an ordinary kind.
+    pub atlas: Option<&'static str>,
 }
 
 /// Parameters that validate their own values (ranges, physical sense).

@@ -1,4 +1,6 @@
-//! The registry: every stage kind this build knows. Adding a kind adds its line here.
+//! The registry: every stage kind this build knows, gathered from the studies' lists
+//! (`KINDS` in each study's `mod.rs`). A new kind is its own file plus two lines in its
+//! study's `mod.rs` (the `pub mod` and the `KINDS` entry); nothing here changes.
 
 use std::collections::BTreeMap;
 
@@ -7,38 +9,39 @@ use super::{calib, column, generic, pile, work_precision};
 
 /// Every stage kind this build knows, by name.
 pub fn registry() -> BTreeMap<&'static str, Kind> {
-    let kinds = [
-        generic::psd::KIND,
-        generic::psd::FIGURE_KIND,
-        generic::tables::KIND,
-        generic::fit_stage::KIND,
-        generic::laws::KIND,
-        column::dem_prep::PREP_KIND,
-        column::dem_snapshot::SNAPSHOT_KIND,
-        column::collapse::KIND,
-        calib::dem_shear::SHEAR_KIND,
-        calib::dem_compress::COMPRESS_KIND,
-        pile::prep::PREP_KIND,
-        pile::run::RUN_KIND,
-        pile::runout::RUNOUT_KIND,
-        pile::series::KIND,
-        pile::energy_runout::KIND,
-        pile::packing::KIND,
-        pile::compare::KIND,
-        calib::dem_calibration::POINT_KIND,
-        calib::dem_calibration::CALIB_KIND,
-        calib::cd_shear::SHEAR_KIND,
-        calib::cd_shear_figure::SHEAR_FIGURE_KIND,
-        column::mpm_geostatic::GEOSTATIC_KIND,
-        work_precision::study::KIND,
-        work_precision::wp_summary::KIND,
-        generic::plot::KIND,
-        generic::compare::KIND,
-        generic::snapshot::KIND,
-        column::scheme::SCHEME_KIND,
-        column::inertial::INERTIAL_KIND,
-        column::packing::PACKING_KIND,
-        column::density_pair::PAIR_KIND,
+    let studies = [
+        generic::KINDS,
+        column::KINDS,
+        calib::KINDS,
+        pile::KINDS,
+        work_precision::KINDS,
     ];
-    kinds.into_iter().map(|k| (k.name, k)).collect()
+    studies.into_iter().flatten().map(|k| (k.name, *k)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{calib, column, generic, pile, work_precision};
+
+    /// The registry is a map by name: a second kind of one name would silently replace the
+    /// first.
+    #[test]
+    fn kind_names_are_unique() {
+        let mut names: Vec<&str> = [
+            generic::KINDS,
+            column::KINDS,
+            calib::KINDS,
+            pile::KINDS,
+            work_precision::KINDS,
+        ]
+        .into_iter()
+        .flatten()
+        .map(|k| k.name)
+        .collect();
+        let n = names.len();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), n, "two kinds share a name");
+        assert_eq!(super::registry().len(), n);
+    }
 }

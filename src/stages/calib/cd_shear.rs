@@ -201,6 +201,7 @@ pub const SHEAR_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(shear_cost),
+    atlas: None,
 };
 
 /// Cost (shear): grains; steps = strain × Σ 1/I over the inertial numbers / Δt.

@@ -145,4 +145,5 @@ pub const SHEAR_FIGURE_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

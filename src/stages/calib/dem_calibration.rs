@@ -278,6 +278,7 @@ pub const POINT_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };
 
 /// Parameters of the `dem-calibration` stage.
@@ -601,6 +602,7 @@ pub const CALIB_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };
 
 /// Apply a `calibration` input (a `dem-calibration` stage) to a stage's DEM parameters:

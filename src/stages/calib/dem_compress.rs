@@ -149,6 +149,7 @@ pub const COMPRESS_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };
 
 /// Cost: grains ∝ the input column's area, steps per simulated second.

@@ -197,6 +197,7 @@ pub const SHEAR_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };
 
 /// Cost: grains of the PSD input; steps per simulated second times the simulated time of

@@ -8,3 +8,14 @@ pub mod cd_shear_figure;
 pub mod dem_calibration;
 pub mod dem_compress;
 pub mod dem_shear;
+
+/// The kinds of this study, registered in [`crate::stages::registry`]. Adding a kind: its
+/// file, its `pub mod` line above and its line here.
+pub const KINDS: &[crate::stages::Kind] = &[
+    dem_shear::SHEAR_KIND,
+    dem_compress::COMPRESS_KIND,
+    dem_calibration::POINT_KIND,
+    dem_calibration::CALIB_KIND,
+    cd_shear::SHEAR_KIND,
+    cd_shear_figure::SHEAR_FIGURE_KIND,
+];

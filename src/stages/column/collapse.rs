@@ -7,9 +7,7 @@
 use serde_json::Value;
 
 use super::dem_collapse::CollapseStageParams as DemColumn;
-use super::dem_common::explain_dem;
 use super::mpm_collapse::CollapseParams as MpmColumn;
-use super::mpm_common::explain_mpm;
 use crate::engines::Method;
 use crate::engines::column::{Collapsed, ColumnEngine, ColumnTrace, Shared};
 use crate::pipeline::context::{Arity, Output, StageCtx};
@@ -55,10 +53,11 @@ fn params(v: &Value) -> Result<Value, Vec<ParamProblem>> {
     Ok(with_method(m, canonical))
 }
 
+/// `--explain`: the stage's engine's pre-flight.
 fn explain(v: &Value) -> String {
-    match split_method(v, METHODS).map(|(m, _)| m) {
-        Ok(Method::Mpm) => explain_mpm(v),
-        _ => explain_dem(v),
+    match ColumnParams::decode(v) {
+        Ok(p) => p.engine().preflight(),
+        Err(e) => format!("refused: {e}"),
     }
 }
 
@@ -271,4 +270,5 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };

@@ -133,6 +133,12 @@ fn packing_table(col: &Column, r: &CollapseResult) -> anyhow::Result<(polars::pr
     Ok((df, rows[0][1], rows[rows.len() - 1][1]))
 }
 
+impl crate::engines::Preflight for CollapseStageParams {
+    fn preflight(&self) -> String {
+        super::dem_common::preflight_dem(&self.dem, self.stiffness_factor, super::dem_common::PREFLIGHT_SIZES)
+    }
+}
+
 impl ColumnEngine for CollapseStageParams {
     fn collapse<'a>(&'a self, ctx: &'a StageCtx, out: &mut Output) -> anyhow::Result<Collapsed<'a>> {
         let mut p = self.clone();

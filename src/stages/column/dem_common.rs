@@ -43,8 +43,14 @@ pub(crate) fn explain_dem(v: &serde_json::Value) -> String {
         .and_then(|d| serde_json::from_value(d).ok())
         .unwrap_or_default();
     let f = v.get("stiffness_factor").and_then(|x| x.as_f64()).unwrap_or(1.0);
-    let run = dem.softened(f);
-    let rows = crate::dem::time_scales(&run, PREFLIGHT_SIZES, true, run.dt);
+    preflight_dem(&dem, f, PREFLIGHT_SIZES)
+}
+
+/// The DEM pre-flight table: every time scale of grains of `sizes` against the step of
+/// `dem` softened by `factor`.
+pub(crate) fn preflight_dem(dem: &DemParams, factor: f64, sizes: crate::dem::SizeClasses) -> String {
+    let run = dem.softened(factor);
+    let rows = crate::dem::time_scales(&run, sizes, true, run.dt);
     let pf = crate::dem::Preflight { dt: run.dt, rows };
     format!("{pf}")
 }

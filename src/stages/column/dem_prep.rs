@@ -193,6 +193,7 @@ pub const PREP_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };
 
 /// Cost: grains ∝ the column's area, steps per simulated second of the run stiffness.

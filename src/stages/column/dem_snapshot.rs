@@ -216,6 +216,7 @@ pub const SNAPSHOT_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };
 
 #[cfg(test)]

@@ -204,4 +204,5 @@ pub const PAIR_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -165,4 +165,5 @@ pub const INERTIAL_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -18,3 +18,16 @@ pub mod mpm_common;
 pub mod mpm_geostatic;
 pub mod packing;
 pub mod scheme;
+
+/// The kinds of this study, registered in [`crate::stages::registry`]. Adding a kind: its
+/// file, its `pub mod` line above and its line here.
+pub const KINDS: &[crate::stages::Kind] = &[
+    dem_prep::PREP_KIND,
+    dem_snapshot::SNAPSHOT_KIND,
+    collapse::KIND,
+    mpm_geostatic::GEOSTATIC_KIND,
+    scheme::SCHEME_KIND,
+    inertial::INERTIAL_KIND,
+    packing::PACKING_KIND,
+    density_pair::PAIR_KIND,
+];

@@ -149,6 +149,12 @@ pub fn series_table(r: &CollapseResult, g: f64) -> anyhow::Result<polars::prelud
     ])
 }
 
+impl crate::engines::Preflight for CollapseParams {
+    fn preflight(&self) -> String {
+        super::mpm_common::preflight_mpm(&self.mpm)
+    }
+}
+
 impl ColumnEngine for CollapseParams {
     fn collapse<'a>(&'a self, ctx: &'a StageCtx, out: &mut Output) -> anyhow::Result<Collapsed<'a>> {
         let mut p = self.clone();

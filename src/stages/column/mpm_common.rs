@@ -80,8 +80,13 @@ pub(crate) fn explain_mpm(v: &serde_json::Value) -> String {
         .cloned()
         .and_then(|d| serde_json::from_value(d).ok())
         .unwrap_or_default();
-    let dt = crate::mpm::preflight::planned_dt(&p, PREFLIGHT_V_MAX);
-    match crate::mpm::preflight::preflight(&p, dt, PREFLIGHT_V_MAX) {
+    preflight_mpm(&p)
+}
+
+/// The MPM pre-flight: the CFL table of `p`'s planned step.
+pub(crate) fn preflight_mpm(p: &MpmParams) -> String {
+    let dt = crate::mpm::preflight::planned_dt(p, PREFLIGHT_V_MAX);
+    match crate::mpm::preflight::preflight(p, dt, PREFLIGHT_V_MAX) {
         Ok(r) => format!("{r}"),
         Err(e) => format!("refused: {e}"),
     }

@@ -237,6 +237,7 @@ pub const GEOSTATIC_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(geostatic_cost),
+    atlas: None,
 };
 
 /// Cost (geostatic): the column's points, CFL steps of the geostatic stage.

@@ -109,4 +109,5 @@ pub const PACKING_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -215,4 +215,5 @@ pub const SCHEME_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -240,6 +240,7 @@ pub const KIND: Kind = Kind {
     },
     reads: Some(reads),
     cost: None,
+    atlas: None,
 };
 
 /// What the comparisons name of their inputs (checked at load).

@@ -344,6 +344,7 @@ pub const KIND: Kind = Kind {
     },
     reads: Some(reads),
     cost: None,
+    atlas: None,
 };
 
 /// What the fit names of its `data` inputs (checked at load).

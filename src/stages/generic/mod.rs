@@ -9,3 +9,16 @@ pub mod plot;
 pub mod psd;
 pub mod snapshot;
 pub mod tables;
+
+/// The kinds of this study, registered in [`crate::stages::registry`]. Adding a kind: its
+/// file, its `pub mod` line above and its line here.
+pub const KINDS: &[crate::stages::Kind] = &[
+    psd::KIND,
+    psd::FIGURE_KIND,
+    tables::KIND,
+    fit_stage::KIND,
+    laws::KIND,
+    plot::KIND,
+    compare::KIND,
+    snapshot::KIND,
+];

@@ -599,6 +599,7 @@ pub const KIND: Kind = Kind {
     },
     reads: Some(reads),
     cost: None,
+    atlas: None,
 };
 
 /// What the figure names of its inputs (checked at load against their kinds' outputs).

@@ -123,6 +123,7 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };
 
 /// Parameters of a `psd-figure` stage.
@@ -300,4 +301,5 @@ pub const FIGURE_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -606,6 +606,7 @@ pub const KIND: Kind = Kind {
     },
     reads: Some(reads),
     cost: None,
+    atlas: None,
 };
 
 /// What the panels name of their inputs (checked at load).

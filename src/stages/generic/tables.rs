@@ -442,4 +442,5 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -29,6 +29,7 @@ pub(crate) fn check_dem_pile(p: &DemParams, factor: f64, c: &mut Checker) {
     }
 }
 
+/// `--explain`: the pre-flight table of a DEM pile stage's parameters (PSD-PILE sizes).
 pub(crate) fn explain_pile(v: &serde_json::Value) -> String {
     let dem: DemParams = v
         .get("dem")
@@ -36,7 +37,5 @@ pub(crate) fn explain_pile(v: &serde_json::Value) -> String {
         .and_then(|d| serde_json::from_value(d).ok())
         .unwrap_or_default();
     let f = v.get("stiffness_factor").and_then(|x| x.as_f64()).unwrap_or(1.0);
-    let run = dem.softened(f);
-    let rows = crate::dem::time_scales(&run, PILE_SIZES, true, run.dt);
-    format!("{}", crate::dem::Preflight { dt: run.dt, rows })
+    crate::stages::column::dem_common::preflight_dem(&dem, f, PILE_SIZES)
 }

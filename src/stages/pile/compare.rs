@@ -580,6 +580,7 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };
 
 #[cfg(test)]

@@ -6,6 +6,8 @@
 pub mod common;
 pub mod compare;
 pub mod energy_runout;
+pub mod grain_pile;
+pub mod mpm_pile;
 pub mod packing;
 pub mod prep;
 pub mod run;
@@ -13,3 +15,15 @@ pub mod run_params;
 pub mod runout;
 pub mod series;
 pub mod series_derived;
+
+/// The kinds of this study, registered in [`crate::stages::registry`]. Adding a kind: its
+/// file, its `pub mod` line above and its line here.
+pub const KINDS: &[crate::stages::Kind] = &[
+    prep::PREP_KIND,
+    run::RUN_KIND,
+    runout::RUNOUT_KIND,
+    series::KIND,
+    energy_runout::KIND,
+    packing::KIND,
+    compare::KIND,
+];

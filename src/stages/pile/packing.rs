@@ -198,6 +198,7 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };
 
 #[cfg(test)]

@@ -276,6 +276,7 @@ pub const PREP_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };
 
 /// Cost: grains poured; steps per simulated second times the longest pouring time.

@@ -5,30 +5,19 @@
 
 use serde_json::Value;
 
-use super::common::explain_pile;
 use super::prep::grains as prep_grains;
 use super::run_params::params;
 use super::run_params::{RunParams, SnapSpec};
-use crate::analysis::pile::PileRun;
-use crate::analysis::pile::{
-    D_NORM, Frame, FrameTimes, M_NORM, Profile, Summary, cavity_area, summarise, surface_at, wall_gap,
-};
+use crate::analysis::pile::{D_NORM, FrameTimes, Profile, Summary, cavity_area, wall_gap};
 use crate::dem::State;
+use crate::engines::Method;
+use crate::engines::pile::{Excited, PileEngine, PileScene};
 use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64, frame};
 use crate::report::plot::{Chart, Legend, Series, Style, footer};
 use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, decode};
 
-use crate::engines::Method;
-
-struct PileInput {
-    state: State,
-    profile: Vec<(f64, f64)>,
-    l0: f64,
-    packing: f64,
-}
-
-fn pile_from(input: &InputRef, density: f64) -> anyhow::Result<PileInput> {
+fn pile_from(input: &InputRef, density: f64) -> anyhow::Result<PileScene> {
     let sc = input.scalars()?;
     let settled = sc.get("settled").copied().unwrap_or(0.0);
     anyhow::ensure!(
@@ -49,7 +38,7 @@ fn pile_from(input: &InputRef, density: f64) -> anyhow::Result<PileInput> {
             .copied()
             .ok_or_else(|| anyhow::anyhow!("input `{}` has no scalar `{k}`", input.id))
     };
-    Ok(PileInput {
+    Ok(PileScene {
         state: s,
         profile,
         l0: get("l0_m")?,
@@ -59,153 +48,15 @@ fn pile_from(input: &InputRef, density: f64) -> anyhow::Result<PileInput> {
 
 fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: RunParams = decode(ctx)?;
-    let density = match p.method {
-        Method::Dem => p.dem.density,
-        Method::Cd => p.cd.density,
-        Method::Mpm => p.grain_density,
-    };
+    let engine = p.engine();
     let pin = ctx.input("pile")?;
-    let pile = pile_from(pin, density)?;
-    if p.method == Method::Dem {
-        let f = pin
-            .params
-            .get("stiffness_factor")
-            .and_then(|v| v.as_f64())
-            .unwrap_or(1.0);
-        anyhow::ensure!(
-            f == p.stiffness_factor,
-            "stiffness_factor {} differs from the pile `{}`'s {f}: the pile was settled with its own contacts; use the same value",
-            p.stiffness_factor,
-            pin.id
-        );
-    }
-    let g = match p.method {
-        Method::Dem => p.dem.gravity,
-        Method::Cd => p.cd.gravity,
-        Method::Mpm => p.mpm.gravity,
-    };
+    let pile = pile_from(pin, engine.density())?;
+    engine.accept(pin)?;
+    let g = engine.gravity();
     let mut out = Output::default();
-    let mut runs: Vec<(Summary, PileRun, f64)> = Vec::new();
     let n = p.energies_mgd.len();
-    match p.method {
-        Method::Dem | Method::Cd => {
-            // D21: E_0[mgd] per grain = E_0 / (N m g d), m = 0.0123 kg, d = 2.455 mm.
-            let unit = pile.state.len() as f64 * M_NORM * g * D_NORM;
-            let run = p.dem.softened(p.stiffness_factor);
-            // The energies are independent runs of a small pile (each steps on one thread):
-            // side by side on the stage's pool, results in the order of `energies_mgd`.
-            use rayon::prelude::*;
-            let finished = std::sync::atomic::AtomicUsize::new(0);
-            let results: Vec<anyhow::Result<(Summary, PileRun, f64)>> = p
-                .energies_mgd
-                .par_iter()
-                .map(|&e| {
-                    let clock = std::time::Instant::now();
-                    let ft = frame_times(&p, e, g);
-                    let r = if p.method == Method::Dem {
-                        crate::dem::pile::run_pile_frames(&pile.state, &run, p.profile, e * unit, &p.stop, &ft)?
-                    } else {
-                        crate::cd::pile::run_excited_pile_frames(&pile.state, &p.cd, p.profile, e * unit, &p.stop, &ft)?
-                    };
-                    let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
-                    let k = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                    ctx.set_progress(k as f64 / n as f64);
-                    Ok((s, r, clock.elapsed().as_secs_f64()))
-                })
-                .collect();
-            for r in results {
-                runs.push(r?);
-            }
-            if p.method == Method::Dem {
-                out.scalar("stiffness_factor", p.stiffness_factor)
-                    .scalar("dt_s", run.dt);
-            } else {
-                out.scalar("cd_dt_max_s", p.cd.dt);
-            }
-        }
-        Method::Mpm => {
-            let mut mp = p.mpm.clone();
-            let (mu, source) = match (p.mpm_friction, ctx.input_opt("shear")) {
-                (Some(m), _) => (m, "mpm_friction (stated)".to_string()),
-                (None, Some(sh)) => (sh.scalar("mu_min")?, format!("μ_min of the CD shear test `{}`", sh.id)),
-                (None, None) => {
-                    anyhow::bail!("MPM pile: no friction — give `inputs: {{ shear: shear-cd }}` or `mpm_friction`")
-                }
-            };
-            mp.material.friction_deg = mu.atan().to_degrees();
-            mp.wall_friction = p.mpm_base_friction.unwrap_or(mu);
-            if p.mpm_density_from_packing {
-                mp.material.density = p.grain_density * pile.packing;
-            }
-            let loaded = crate::mpm::pile::load_pile(&mp, &p.mpm_pile, &pile.profile, pile.l0)?;
-            let cells_high = pile
-                .profile
-                .iter()
-                .filter(|q| q.1.is_finite())
-                .map(|q| q.1)
-                .fold(0.0, f64::max)
-                / mp.cell_size;
-            anyhow::ensure!(
-                cells_high >= 2.0,
-                "the pile is only {cells_high:.1} cells of mpm.cell_size = {} m high: use smaller cells",
-                mp.cell_size
-            );
-            let mass: f64 = loaded.state.points.iter().map(|q| q.mass).sum();
-            let link = if p.mpm_link_cells > 0.0 {
-                p.mpm_link_cells * mp.cell_size
-            } else {
-                1.5 * mp.spacing()
-            };
-            // D21 for MPM: E_0[mgd] = E_0 / (M_total g d).
-            let unit = mass * g * D_NORM;
-            for (k, &e) in p.energies_mgd.iter().enumerate() {
-                let clock = std::time::Instant::now();
-                let ft = frame_times(&p, e, g);
-                let r = crate::mpm::pile::run_pile_frames(&loaded, &mp, p.profile, e * unit, &p.stop, link, &ft)?;
-                let s = summarise(&r.samples, r.l0, r.e0, unit, r.e0_check, r.stopped, g);
-                runs.push((s, r, clock.elapsed().as_secs_f64()));
-                ctx.set_progress((k + 1) as f64 / n as f64);
-            }
-            if let Some(b) = p.mpm_base_friction {
-                out.scalar("mpm_base_friction", b);
-            }
-            if let Some(f0) = runs.iter().flat_map(|r| r.1.frames.first()).find(|f| f.t == 0.0) {
-                // fig4-24b: σ_yy after the geostatic stage against the overburden −ρg(h_s(x) − y)
-                // of the seeding surface, over the points deeper than 2 spacings.
-                let (err, n_deep) =
-                    lithostatic_misfit(f0, &pile.profile, pile.l0, mp.material.density, g, 2.0 * mp.spacing());
-                out.scalar("snap_sigma_yy_rel_err", err)
-                    .scalar("snap_sigma_yy_points", n_deep as f64);
-                // Not exact: the frictional wall and base carry part of the weight (column
-                // fig4-04: 2.5 % at the base) and the seeding surface is the grains' rough top.
-                out.checks.push(Claim::at_most("sigma-yy-lithostatic", "fig4-24b: σ_yy after the geostatic stage ≈ −ρg(h_surface(x) − y) (relative L2 misfit over the points > 2 spacings deep; bound 0.2)", 0.2, err));
-                // docs/definitions.md fig4-24: "Expected max v_x = kH ≈ 1.1 m/s at the base
-                // next to the wall (triangle estimate)": E_0/(M g d) = (kH)²/(4 g d) for a
-                // right triangle.
-                if p.profile == Profile::Gradient {
-                    let e_mgd = runs
-                        .iter()
-                        .find(|r| r.1.frames.first().is_some_and(|f| f.t == 0.0))
-                        .map(|r| r.0.e0_mgd)
-                        .unwrap_or(f64::NAN);
-                    let kh = (4.0 * g * D_NORM * e_mgd).sqrt();
-                    let vmax = f0.vx.iter().cloned().fold(0.0, f64::max);
-                    out.scalar("snap_vx_max_m_s", vmax).scalar("snap_vx_triangle_m_s", kh);
-                    out.checks.push(Claim::rel("vx-max-triangle", &format!("fig4-24c: largest v_x at t = 0 against the right-triangle estimate kH = √(4 g d E_0) = {kh:.3} m/s (the pile is not an exact triangle; 10 %)"), kh, vmax, 0.1));
-                }
-            }
-            out.scalar("mpm_friction", mu)
-                .scalar("mpm_friction_deg", mu.atan().to_degrees())
-                .scalar("mpm_density", mp.material.density)
-                .scalar("mpm_points", loaded.state.points.len() as f64)
-                .scalar("mpm_geostatic_time_s", loaded.geostatic_time);
-            out.note(format!(
-                "MPM: Mohr–Coulomb φ = {:.2}° and base/wall friction {mu:.3} from {source}; ρ = {:.0} kg/m³ (grain density × the DEM pile's φ); {} points, cell {} m, PPC {}; geostatic stage at φ = {}° (docs/definitions.md I7 option ii).",
-                mu.atan().to_degrees(), mp.material.density, loaded.state.points.len(), mp.cell_size, mp.ppc, p.mpm_pile.geostatic_friction_deg
-            ));
-        }
-    }
-    let col = |f: &dyn Fn(&Summary) -> f64| -> Vec<f64> { runs.iter().map(|(s, _, _)| f(s)).collect() };
+    let runs = engine.excite(ctx, &pile, &mut out)?;
+    let col = |f: &dyn Fn(&Summary) -> f64| -> Vec<f64> { runs.iter().map(|r| f(&r.summary)).collect() };
     out.table(
         "table",
         frame(vec![
@@ -223,12 +74,12 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             ("eky_peak", col(&|s| s.eky_peak)),
             ("stopped", col(&|s| s.stopped)),
             ("t_end", col(&|s| s.t_end)),
-            ("steps", runs.iter().map(|r| r.1.steps as f64).collect()),
+            ("steps", runs.iter().map(|r| r.run.steps as f64).collect()),
         ])?,
     );
     let tu = (D_NORM / g).sqrt();
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); 8];
-    for (s, r, _) in &runs {
+    for Excited { summary: s, run: r, .. } in &runs {
         for q in &r.samples {
             let v = [
                 s.e0_mgd,
@@ -250,11 +101,11 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     ];
     out.table("series", frame(names.iter().cloned().zip(cols).collect())?);
     if let Some(sn) = &p.snapshots {
-        snapshot_outputs(&mut out, &p, sn, &runs, g)?;
+        snapshot_outputs(&mut out, &p, engine.as_ref(), sn, &runs, g)?;
     }
     let worst = runs
         .iter()
-        .map(|(s, _, _)| (s.e0_check - 1.0).abs())
+        .map(|r| (r.summary.e0_check - 1.0).abs())
         .fold(0.0, f64::max);
     out.checks.push(Claim::at_most(
         "e0-exact",
@@ -267,12 +118,12 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             .as_ref()
             .is_some_and(|sn| sn.end_after_last && (sn.e0_mgd - s.e0_mgd).abs() <= 1e-9 * s.e0_mgd.abs())
     };
-    if runs.iter().any(|(s, _, _)| frames_only(s)) {
+    if runs.iter().any(|r| frames_only(&r.summary)) {
         out.note("The snapshot run ended at its last frame (snapshots.end_after_last): its row of the table is of a truncated run (stopped = 0), not a run-out.".to_string());
     }
     let unstopped = runs
         .iter()
-        .filter(|(s, _, _)| s.stopped == 0.0 && !frames_only(s))
+        .filter(|r| r.summary.stopped == 0.0 && !frames_only(&r.summary))
         .count();
     out.checks.push(Claim::at_most(
         "stopped",
@@ -285,7 +136,7 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     out.note(format!(
         "Wall time per energy [s]: {}.",
         runs.iter()
-            .map(|r| format!("{:.1}", r.2))
+            .map(|r| format!("{:.1}", r.wall_s))
             .collect::<Vec<_>>()
             .join(", ")
     ));
@@ -293,7 +144,7 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
     let series: Vec<Series> = runs
         .iter()
         .enumerate()
-        .map(|(k, (s, r, _))| {
+        .map(|(k, Excited { summary: s, run: r, .. })| {
             let pts: Vec<(f64, f64)> = r
                 .samples
                 .iter()
@@ -333,7 +184,7 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
 }
 
 /// Frame instants [s] of the run at `e` [mgd] (none unless it is the snapshot run).
-fn frame_times(p: &RunParams, e: f64, g: f64) -> FrameTimes {
+pub(super) fn frame_times(p: &RunParams, e: f64, g: f64) -> FrameTimes {
     match &p.snapshots {
         Some(sn) if (sn.e0_mgd - e).abs() <= 1e-9 * e.abs() => FrameTimes {
             times: sn.times.iter().map(|t| t * (D_NORM / g).sqrt()).collect(),
@@ -343,35 +194,21 @@ fn frame_times(p: &RunParams, e: f64, g: f64) -> FrameTimes {
     }
 }
 
-/// Relative L2 misfit of σ_yy against −ρg(h_s(x) − y) over the points deeper than `depth`.
-fn lithostatic_misfit(f: &Frame, profile: &[(f64, f64)], l0: f64, rho: f64, g: f64, depth: f64) -> (f64, usize) {
-    let (mut num, mut den, mut n) = (0.0, 0.0, 0usize);
-    for i in 0..f.x.len() {
-        let z = surface_at(profile, f.x[i], l0) - f.y[i];
-        if z > depth {
-            let want = -rho * g * z;
-            num += (f.sigma_yy[i] - want).powi(2);
-            den += want * want;
-            n += 1;
-        }
-    }
-    (if den > 0.0 { (num / den).sqrt() } else { f64::NAN }, n)
-}
-
 /// The snapshot run's frames (`snapshots` table, the `snapshot` kind's schema with time in
 /// √(d/g)), per-frame front, cavity and wall gap (`snapshot_metrics`), and the chapter's
 /// statements on the cavity and the left wall (figs 4.31, 4.32, 4.42, 4.43).
 fn snapshot_outputs(
     out: &mut Output,
     p: &RunParams,
+    engine: &dyn PileEngine,
     sn: &SnapSpec,
-    runs: &[(Summary, PileRun, f64)],
+    runs: &[Excited],
     g: f64,
 ) -> anyhow::Result<()> {
     let tu = (D_NORM / g).sqrt();
-    let Some((_, r, _)) = runs
+    let Some(Excited { run: r, .. }) = runs
         .iter()
-        .find(|(s, _, _)| (s.e0_mgd - sn.e0_mgd).abs() <= 1e-9 * sn.e0_mgd.abs())
+        .find(|r| (r.summary.e0_mgd - sn.e0_mgd).abs() <= 1e-9 * sn.e0_mgd.abs())
     else {
         anyhow::bail!("snapshots.e0_mgd = {} matches no run", sn.e0_mgd)
     };
@@ -399,16 +236,8 @@ fn snapshot_outputs(
         // over every body (the linked front of a thinning grain layer jumps; the cavity is
         // left of the highest point, which a far grain does not move)
         let reach = f.x.iter().zip(&f.half).map(|(x, h)| x + h).fold(0.0, f64::max);
-        // MPM: points are one continuum while they share grid nodes (mpm_link_cells, as the front)
-        let extra = match p.method {
-            Method::Mpm => (if p.mpm_link_cells > 0.0 {
-                p.mpm_link_cells * p.mpm.cell_size
-            } else {
-                1.5 * p.mpm.spacing()
-            } - 2.0 * f.half.first().copied().unwrap_or(0.0))
-            .max(0.0),
-            _ => 0.0,
-        };
+        // the method's: MPM points are one continuum while they share grid nodes
+        let extra = engine.cavity_link(f.half.first().copied().unwrap_or(0.0));
         let cav = cavity_area(&f.x, &f.y, &f.half, reach, 2.0 * d, extra) / (d * d);
         let gap = wall_gap(&f.x, &f.half) / d;
         for (c, v) in cols.iter_mut().zip([k as f64, f.t / tu, l / d, cav, gap]) {
@@ -438,14 +267,10 @@ fn snapshot_outputs(
     }
     match p.profile {
         Profile::Gradient => {
-            // In contact: a grain within half a diameter of the wall; for MPM, material in the
-            // wall's grid cell (the wall is a node line: the continuum meets it there).
-            let eps = if p.method == Method::Mpm {
-                p.mpm.cell_size / D_NORM
-            } else {
-                0.5
-            };
-            out.claims.push(Claim::at_most("wall-contact", &format!("\"the granular heap remains in contact with the left wall irrespective of the input energy\": largest over the frames of the smallest body–wall gap min(x − half), in d ({span}; bound {eps:.2} d: {})", if p.method == Method::Mpm { "one grid cell" } else { "half a grain" }), eps, worst_gap));
+            // In contact: within the method's gap of the wall (a grain: half a diameter; MPM:
+            // material in the wall's grid cell, the wall being a node line).
+            let (eps, says) = engine.wall_contact();
+            out.claims.push(Claim::at_most("wall-contact", &format!("\"the granular heap remains in contact with the left wall irrespective of the input energy\": largest over the frames of the smallest body–wall gap min(x − half), in d ({span}; bound {eps:.2} d: {says})"), eps, worst_gap));
             out.claims.push(Claim::at_most("cavity-partly-filled", &format!("\"This cavity gets partially filled as the granular mass at the top collapse behind the flowing mass\": cavity area at the last frame over its peak (cavity: the dent left of the highest point under the surface seen from the right, 2 d bins; {span}; bound 0.9)"), 0.9, fill));
         }
         Profile::Uniform => {
@@ -455,14 +280,11 @@ fn snapshot_outputs(
     Ok(())
 }
 
-/// Pre-flight table of the stage's method.
+/// `--explain`: the stage's engine's pre-flight.
 fn explain(v: &Value) -> String {
-    match v.get("method").and_then(Value::as_str).and_then(Method::parse) {
-        Some(Method::Mpm) => crate::stages::column::mpm_common::explain_mpm(v),
-        Some(Method::Cd) => "CD: no stability limit on Δt (contact dynamics is implicit in the contact forces); \
-                             `cd.dt` is the largest step of the adaptive rule"
-            .into(),
-        _ => explain_pile(v),
+    match serde_json::from_value::<RunParams>(v.clone()) {
+        Ok(p) => p.engine().preflight(),
+        Err(e) => format!("refused: {e}"),
     }
 }
 
@@ -523,6 +345,7 @@ pub const RUN_KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };
 
 /// Cost: every energy runs to `stop.t_max` at most (in √(d/g); the same d̄ at both
@@ -531,24 +354,7 @@ fn cost(c: &CostCtx) -> Option<Work> {
     let p: RunParams = c.typed()?;
     let grains = prep_grains((c.inputs)("pile").first()?)?;
     let time = p.energies_mgd.len() as f64 * p.stop.t_max;
-    let f = |g: (&'static str, f64), s: (&'static str, f64)| Some((vec![g, s], false));
-    match p.method {
-        Method::Dem => f(
-            ("grains", grains),
-            ("steps", p.dem.steps_per_second(p.stiffness_factor) * time),
-        ),
-        // Adaptive step below cd.dt: cd.dt bounds the step count from below.
-        Method::Cd => f(("grains", grains), ("steps", time / p.cd.dt)),
-        // Points fill the pile's area (∝ grains) at ppc per h²; the CFL step ∝ h.
-        Method::Mpm => {
-            let (h, ppc) = (p.mpm.cell_size, p.mpm.ppc as f64);
-            let courant = match p.mpm.step {
-                crate::mpm::params::StepRule::Cfl { courant, .. } => courant,
-                _ => 1.0,
-            };
-            f(("points", grains * ppc / (h * h)), ("steps", time / (courant * h)))
-        }
-    }
+    Some((p.engine().work(grains, time), false))
 }
 
 #[cfg(test)]

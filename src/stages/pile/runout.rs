@@ -382,4 +382,5 @@ pub const RUNOUT_KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -732,4 +732,5 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: None,
 };

@@ -8,3 +8,7 @@ pub mod dem_wp;
 pub mod mpm_wp;
 pub mod study;
 pub mod wp_summary;
+
+/// The kinds of this study, registered in [`crate::stages::registry`]. Adding a kind: its
+/// file, its `pub mod` line above and its line here.
+pub const KINDS: &[crate::stages::Kind] = &[study::KIND, wp_summary::KIND];

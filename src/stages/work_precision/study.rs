@@ -137,4 +137,5 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: Some(cost),
+    atlas: None,
 };

@@ -549,6 +549,7 @@ pub const KIND: Kind = Kind {
     },
     reads: None,
     cost: None,
+    atlas: Some("profile"),
 };
 
 /// Relative error of an ensemble mean against the reference ensemble's mean, and its
