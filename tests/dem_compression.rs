@@ -21,7 +21,8 @@ fn confined_compression_gives_modulus() {
     };
     let col = deposited_column(&radii, 0.015, 0.011, &quick, &dep).unwrap();
     let cp = CompressionParams::default();
-    for f in [0.01] {
+    {
+        let f = 0.01;
         let p = DemParams::default().softened(f);
         let r = compression_test(&col, &p, &cp).unwrap();
         eprintln!(

@@ -334,15 +334,15 @@ impl Graph {
                 }
             }
             for path in found {
-                if let Some((target, name)) = g.resolve(&path) {
-                    if &target != f {
-                        g.edges
-                            .entry(f.clone())
-                            .or_default()
-                            .entry(target)
-                            .or_default()
-                            .insert(name);
-                    }
+                if let Some((target, name)) = g.resolve(&path)
+                    && &target != f
+                {
+                    g.edges
+                        .entry(f.clone())
+                        .or_default()
+                        .entry(target)
+                        .or_default()
+                        .insert(name);
                 }
             }
         }
@@ -362,13 +362,13 @@ impl Graph {
         let module = &path[..k];
         let name = path.get(k).cloned().unwrap_or_else(|| module.last().unwrap().clone());
         // follow a re-export (possibly several levels)
-        if let Some(next) = path.get(k).and_then(|n| self.reexports.get(module)?.get(n)) {
-            if next.as_slice() != module {
-                let mut p = next.clone();
-                p.extend(path[k..].iter().cloned());
-                if let Some(r) = self.resolve(&p) {
-                    return Some(r);
-                }
+        if let Some(next) = path.get(k).and_then(|n| self.reexports.get(module)?.get(n))
+            && next.as_slice() != module
+        {
+            let mut p = next.clone();
+            p.extend(path[k..].iter().cloned());
+            if let Some(r) = self.resolve(&p) {
+                return Some(r);
             }
         }
         Some((self.file_of[module].clone(), name))

@@ -334,8 +334,7 @@ fn a_bad_ledger_is_refused_before_anything_runs_naming_the_file_and_key() {
     );
     std::fs::write(&f, text.replacen("kind: quantitative", "kind: quantitive", 1)).unwrap();
     let msg = load(&t.path().join("pipeline.yaml"), "quick", &[])
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     assert!(msg.contains("ledger.yaml") && msg.contains("kind"), "{msg}");
 }

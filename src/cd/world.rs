@@ -148,13 +148,13 @@ impl World {
         }
         let alert = params.alert_fraction * d_min;
         let skin = params.skin_factor * alert;
-        if let Some(lx) = periodic_lx {
-            if !(lx >= 3.0 * (2.0 * r_max + skin)) {
-                return Err(CdError::Setup(format!(
-                    "periodic cell width {lx:.4e} m is below 3 neighbour cells of 2 r_max + skin = {:.4e} m: widen the cell",
-                    2.0 * r_max + skin
-                )));
-            }
+        if let Some(lx) = periodic_lx
+            && !(lx >= 3.0 * (2.0 * r_max + skin))
+        {
+            return Err(CdError::Setup(format!(
+                "periodic cell width {lx:.4e} m is below 3 neighbour cells of 2 r_max + skin = {:.4e} m: widen the cell",
+                2.0 * r_max + skin
+            )));
         }
         let mut bodies = Vec::with_capacity(n + walls.len());
         let mut info = Vec::with_capacity(n + walls.len());

@@ -353,8 +353,8 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
     }
     println!("cost growth, {threads} thread(s): wall time per step");
     println!(
-        "  {:<5} {:>8} {:>12} {:>14} {:>8}  {}",
-        "engine", "n", "ms/step", "ns/(n·step)", "vs 1e3", ""
+        "  {:<5} {:>8} {:>12} {:>14} {:>8}  ",
+        "engine", "n", "ms/step", "ns/(n·step)", "vs 1e3"
     );
     for eng in ["DEM", "MPM", "CD"] {
         let r: Vec<_> = rows.iter().filter(|r| r.0 == eng).collect();

@@ -165,7 +165,7 @@ impl PairFilter {
     #[inline(always)]
     pub(crate) unsafe fn run_to(&self, lo: usize, hi: usize, dst: *mut u16) -> usize {
         let (pi, pj, shift, x, y, r, lx) = (self.pi, self.pj, self.shift, self.x, self.y, self.r, self.lx);
-        checked_assert!(lo % 64 == 0 && hi - lo <= PAIR_CHUNK);
+        checked_assert!(lo.is_multiple_of(64) && hi - lo <= PAIR_CHUNK);
         let mut n_todo = 0usize;
         for base in (lo..hi).step_by(64) {
             let valid = if hi - base >= 64 {
@@ -601,7 +601,9 @@ impl<const R: bool, const IMP: bool, const L: bool, const KICK: bool> GrainPass<
         // (`NearWalls`: the others have no contact and nothing to drop)
         let mut part = Partial::default();
         if self.any_wall {
-            checked_assert!(lo % GRAIN_CHUNK == 0 && self.near_start.len() == walls.len() * (self.near_chunks + 1));
+            checked_assert!(
+                lo.is_multiple_of(GRAIN_CHUNK) && self.near_start.len() == walls.len() * (self.near_chunks + 1)
+            );
             let c = lo / GRAIN_CHUNK;
             for (wi, wall) in walls.iter().enumerate() {
                 if !wall.active {

@@ -63,8 +63,8 @@ impl fmt::Display for Preflight {
         )?;
         writeln!(
             f,
-            "{:<52} {:>11} {:>11} {:>8} {:>9}  {}",
-            "time scale", "value [s]", "limit [s]", "dt/lim", "steps", "status"
+            "{:<52} {:>11} {:>11} {:>8} {:>9}  status",
+            "time scale", "value [s]", "limit [s]", "dt/lim", "steps"
         )?;
         for r in &self.rows {
             let status = if r.ratio >= 1.0 {

@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicU64;
 /// Pairs per parallel work unit (fixed: the reduction order must not depend on threads).
 pub const PAIR_CHUNK: usize = 512;
 // a pair chunk's live bits are whole words (`World::plive`)
-const _: () = assert!(PAIR_CHUNK % 64 == 0 && PAIR_CHUNK <= 1 << 16);
+const _: () = assert!(PAIR_CHUNK.is_multiple_of(64) && PAIR_CHUNK <= 1 << 16);
 /// Grains per parallel work unit.
 pub const GRAIN_CHUNK: usize = 256;
 /// Most walls a scene can have.

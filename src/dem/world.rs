@@ -152,7 +152,7 @@ impl World {
         let np = self.nl.len();
         self.plive.clear();
         self.plive.resize(np.div_ceil(64), !0);
-        if np % 64 != 0 {
+        if !np.is_multiple_of(64) {
             self.plive[np / 64] = (1u64 << (np % 64)) - 1;
         }
     }
@@ -286,7 +286,7 @@ impl World {
         let t4 = Clock::now(on);
         self.timers.integrate += t3.to(t4);
         let wd = self.params.watchdog.every;
-        if wd > 0 && self.steps % wd == 0 {
+        if wd > 0 && self.steps.is_multiple_of(wd) {
             self.watchdog()?;
         }
         self.timers.watchdog += t4.elapsed();

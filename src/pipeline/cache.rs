@@ -429,20 +429,20 @@ impl Cache {
                 .flatten()
             {
                 let name = e.file_name().to_string_lossy().to_string();
-                if let Some(k) = name.strip_suffix(".lock").or_else(|| name.strip_suffix(".use")) {
-                    if is_key(k) {
-                        keys.entry(k.to_string()).or_default();
-                    }
+                if let Some(k) = name.strip_suffix(".lock").or_else(|| name.strip_suffix(".use"))
+                    && is_key(k)
+                {
+                    keys.entry(k.to_string()).or_default();
                 }
             }
         }
         for (key, scratch) in keys {
             let entry = self.entry_dir(&key);
             let has_entry = entry.is_dir();
-            if let Some(p) = profile {
-                if !has_entry || entry_profile(&entry).as_deref() != Some(p) {
-                    continue;
-                }
+            if let Some(p) = profile
+                && (!has_entry || entry_profile(&entry).as_deref() != Some(p))
+            {
+                continue;
             }
             // Every writer of `key` holds its `.use` lock shared, so holding it exclusively
             // means nobody is reading, writing or committing this entry.

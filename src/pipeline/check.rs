@@ -331,10 +331,10 @@ pub fn dedupe(d: Diagnostics) -> Diagnostics {
         let g = groups
             .entry((x.file.display().to_string(), x.line, rest.clone(), x.message.clone()))
             .or_insert_with(|| (i, Vec::new(), x.clone()));
-        if let Some(s) = stage {
-            if !g.1.contains(&s) {
-                g.1.push(s);
-            }
+        if let Some(s) = stage
+            && !g.1.contains(&s)
+        {
+            g.1.push(s);
         }
     }
     let mut v: Vec<(usize, Diagnostic)> = groups
@@ -353,10 +353,10 @@ pub fn dedupe(d: Diagnostics) -> Diagnostics {
 
 /// `stages[ID].rest` → (Some(ID), ".rest"); anything else → (None, key).
 fn split_stage_key(key: &str) -> (Option<String>, String) {
-    if let Some(inner) = key.strip_prefix("stages[") {
-        if let Some(end) = inner.find(']') {
-            return (Some(inner[..end].to_string()), inner[end + 1..].to_string());
-        }
+    if let Some(inner) = key.strip_prefix("stages[")
+        && let Some(end) = inner.find(']')
+    {
+        return (Some(inner[..end].to_string()), inner[end + 1..].to_string());
     }
     (None, key.to_string())
 }

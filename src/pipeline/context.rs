@@ -176,7 +176,7 @@ impl InputRef {
     }
     /// An extra file's bytes.
     pub fn file(&self, name: &str) -> anyhow::Result<Vec<u8>> {
-        Ok(std::fs::read(self.dir.join(name)).with_context(|| format!("input `{}` has no file `{name}`", self.id))?)
+        std::fs::read(self.dir.join(name)).with_context(|| format!("input `{}` has no file `{name}`", self.id))
     }
 }
 

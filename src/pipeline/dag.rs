@@ -25,11 +25,11 @@ pub fn closure(p: &Pipeline, targets: &[String]) -> Result<Vec<String>, Vec<Stri
         return Err(unknown);
     }
     while let Some(id) = stack.pop() {
-        if want.insert(id.clone()) {
-            if let Some(s) = p.get(&id) {
-                for (_, ids) in &s.inputs {
-                    stack.extend(ids.iter().cloned());
-                }
+        if want.insert(id.clone())
+            && let Some(s) = p.get(&id)
+        {
+            for (_, ids) in &s.inputs {
+                stack.extend(ids.iter().cloned());
             }
         }
     }

@@ -90,10 +90,12 @@ pub fn locate(text: &str, path: &[&str], from_line: usize) -> Option<usize> {
                 continue;
             }
             let indent = raw.len() - trimmed.len();
-            if let Some(p) = parent_indent {
-                if indent <= p && i > start && !trimmed.starts_with("- ") {
-                    break; // left the parent block
-                }
+            if let Some(p) = parent_indent
+                && indent <= p
+                && i > start
+                && !trimmed.starts_with("- ")
+            {
+                break; // left the parent block
             }
             let body = trimmed.strip_prefix("- ").unwrap_or(trimmed);
             let key = body

@@ -180,7 +180,7 @@ pub fn publish(
         let target = Path::new(SETS).join(id).join(n);
         let flat = dir.join(n);
         let current = std::fs::read_link(&flat).ok();
-        if let Some(other) = current.as_deref().and_then(|t| owner_of(t)).filter(|o| o != id) {
+        if let Some(other) = current.as_deref().and_then(owner_of).filter(|o| o != id) {
             // `a` with an extra file `b.csv` and a stage `b` … both publish `a-b.csv`.
             return Err(fsio::at(
                 &format!("stage `{id}` cannot publish"),

@@ -106,10 +106,10 @@ pub fn methods(rec: &Value) -> Vec<&'static str> {
     }
     let mut out: Vec<&'static str> = Vec::new();
     for (_, id) in &inputs {
-        if let Some(m) = engine(id) {
-            if !out.contains(&m) {
-                out.push(m);
-            }
+        if let Some(m) = engine(id)
+            && !out.contains(&m)
+        {
+            out.push(m);
         }
     }
     out

@@ -340,7 +340,7 @@ const FAILED_EVERY: u32 = if cfg!(loom) { 1 } else { 64 };
 pub fn wait_for(flag: &AtomicU64, id: u64) {
     let mut spins = 0u32;
     while flag.load(Acquire) != id {
-        if spins % FAILED_EVERY == 0 {
+        if spins.is_multiple_of(FAILED_EVERY) {
             let t = MEMBER.with(|m| m.get());
             // SAFETY: `MEMBER` is set only while its team is borrowed by `Team::help` or
             // `Team::lead` on this thread (cleared by their guards), so it is alive.

@@ -142,7 +142,7 @@ impl World {
         let wd = self.params.watchdog.every;
         let mut first = None;
         for k in 0..n {
-            let join = boundary && k + 1 < n && !(wd > 0 && (self.steps + 1) % wd == 0);
+            let join = boundary && k + 1 < n && !(wd > 0 && (self.steps + 1).is_multiple_of(wd));
             first = self.step_with::<R, IMP, L>(first, join)?;
         }
         Ok(())

@@ -32,7 +32,7 @@ pub(crate) fn contacts_at_rest(s: &State) -> Vec<(usize, usize, f64)> {
             }
         }
     }
-    out.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+    out.sort_by_key(|a| (a.0, a.1));
     out
 }
 

@@ -55,13 +55,14 @@ impl Validate for CollapseParams {
         let mut c = Checker::new("");
         check_mpm(&self.mpm, &mut c);
         c.in_closed("a", self.a, 0.05, 20.0);
-        if c.issues.is_empty() && self.area_m2 > 0.0 {
-            if let Err(m) = crate::mpm::preflight::containment(
+        if c.issues.is_empty()
+            && self.area_m2 > 0.0
+            && let Err(m) = crate::mpm::preflight::containment(
                 &self.mpm,
                 crate::mpm::column::ColumnSpec::from_area(self.a, self.area_m2),
-            ) {
-                c.fail("mpm.wall_friction", self.mpm.wall_friction, &m);
-            }
+            )
+        {
+            c.fail("mpm.wall_friction", self.mpm.wall_friction, &m);
         }
         c.check(
             self.area_m2.is_finite() && self.area_m2 > 1e-6 && self.area_m2 < 10.0,

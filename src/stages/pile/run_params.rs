@@ -165,7 +165,7 @@ impl Validate for RunParams {
                     // grain diameter": a spacing far from d̄ cannot represent the pile.
                     let sp = self.mpm.spacing();
                     c.check(
-                        sp >= 0.2 * D_NORM && sp <= 3.0 * D_NORM,
+                        (0.2 * D_NORM..=3.0 * D_NORM).contains(&sp),
                         "mpm.cell_size",
                         format!("{} m with ppc {} (point spacing {:.2} mm)", self.mpm.cell_size, self.mpm.ppc, sp * 1e3),
                         "a point spacing h/√PPC in [0.2, 3] d̄ = [0.49, 7.4] mm (chapter: spacing ≈ d̄; its PPC study reaches 6.25 mm = 2.55 d̄ at h = 0.0125 m, PPC 4)",

@@ -580,10 +580,10 @@ fn ppc_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Derived])
                     .max_by(|a, b| a.labels[ip].total_cmp(&b.labels[ip]))
                     .map(|r| (r.labels[ip], r.dl))
             };
-            if let (Some((q0, a)), Some((q1, b))) = (pick(cells[0]), pick(cells[1])) {
-                if q0 == q1 {
-                    worst = worst.max((b - a).abs() / a);
-                }
+            if let (Some((q0, a)), Some((q1, b))) = (pick(cells[0]), pick(cells[1]))
+                && q0 == q1
+            {
+                worst = worst.max((b - a).abs() / a);
             }
         }
         out.scalar("mesh_dl_diff", worst);

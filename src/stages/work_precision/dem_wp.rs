@@ -17,6 +17,7 @@ use crate::validate::{Checker, Issue};
 /// Parameters of a `work-precision` stage with `method: dem`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
+#[derive(Default)]
 pub struct WpParams {
     /// Base solver parameters (table 4.2).
     pub dem: DemParams,
@@ -31,18 +32,6 @@ pub struct WpParams {
     /// input `coarser` (the same a, fewer grains); empty = the second variant.
     #[serde(skip_serializing_if = "String::is_empty")]
     pub grains_at: String,
-}
-
-impl Default for WpParams {
-    fn default() -> Self {
-        WpParams {
-            dem: DemParams::default(),
-            variants: vec![],
-            run: CollapseParams::default(),
-            ensemble: crate::stages::calib::dem_calibration::Ensemble::default(),
-            grains_at: String::new(),
-        }
-    }
 }
 
 impl Validate for WpParams {

@@ -30,18 +30,11 @@ use crate::validate::{Checker, Issue};
 /// Parameters of a `wp-summary` stage.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
+#[derive(Default)]
 pub struct SummaryParams {
     /// Setting label whose error and wall time stand for the profile's figures, per method
     /// (`dem`, `mpm`, `cd`); labels as in the atlas table's `setting` column.
     pub profile: BTreeMap<String, String>,
-}
-
-impl Default for SummaryParams {
-    fn default() -> Self {
-        SummaryParams {
-            profile: BTreeMap::new(),
-        }
-    }
 }
 
 impl Validate for SummaryParams {
