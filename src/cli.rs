@@ -407,6 +407,12 @@ pub fn run_cli(cli: Cli) -> i32 {
                                         println!("{}: {}", s.id, line.join(", "));
                                     }
                                 }
+                                // Text results (a choice's rule and its reason).
+                                for (k, t) in v.as_object().into_iter().flatten() {
+                                    if let (Some(t), false) = (t.as_str(), k == "stage" || k == "profile") {
+                                        println!("  {k}: {t}");
+                                    }
+                                }
                                 for c in v["measurements"].as_array().into_iter().flatten() {
                                     println!(
                                         "  measurement {}: {} (judged in the ledger: `granrepro claims`)",

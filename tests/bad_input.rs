@@ -198,6 +198,16 @@ fn corpus() -> Vec<Case> {
             &["pipeline.yaml:1", "version"]
         ),
         case!("missing stages", "version: 1\n", RUN, &[PY, "stages"]),
+        // -- the DEM calibration's rule (issue 24): calib_target is flows | friction-angle
+        case!(
+            "calibration target that is not a rule",
+            "version: 1\nstages:\n  - id: c\n    kind: dem-calibration\n    params_file: stages/c.yaml\n",
+            &[("stages/c.yaml", "# targets\ncalib_target: phi\n")],
+            RUN,
+            &[
+                "c.yaml:2", "stages[c].params.calib_target", "phi", "flows", "friction-angle"
+            ]
+        ),
         // -- a study kind's method
         case!(
             "study without its method",

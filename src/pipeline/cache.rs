@@ -58,7 +58,7 @@ use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::context::Output;
+use super::context::{Output, RESULT_KEYS};
 use super::fsio;
 pub use super::fsio::write_atomic;
 
@@ -543,6 +543,18 @@ fn read_manifest(dir: &Path) -> Result<Manifest, String> {
 /// value, the tolerance and the verdict belong to the ledger (`crate::claims`), which
 /// judges each claim once. Checks (inputs, identities) keep their own verdict.
 pub fn result_json(stage: &str, profile: &str, out: &Output) -> Value {
+    let mut v = result_json_fixed(stage, profile, out);
+    if let Some(m) = v.as_object_mut() {
+        for (k, t) in &out.texts {
+            if !RESULT_KEYS.contains(&k.as_str()) {
+                m.insert(k.clone(), Value::String(t.clone()));
+            }
+        }
+    }
+    v
+}
+
+fn result_json_fixed(stage: &str, profile: &str, out: &Output) -> Value {
     let scalars: serde_json::Map<String, Value> = out
         .scalars
         .iter()

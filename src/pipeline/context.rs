@@ -93,6 +93,9 @@ impl Claim {
     }
 }
 
+/// The fixed keys of a stage's JSON; a text result ([`Output::text`]) may not take one.
+pub const RESULT_KEYS: &[&str] = &["stage", "profile", "scalars", "measurements", "checks"];
+
 /// Everything a stage produces. The first table is the stage's main table.
 #[derive(Default)]
 pub struct Output {
@@ -111,6 +114,8 @@ pub struct Output {
     pub files: Vec<(String, Vec<u8>)>,
     /// Notes for the report (choices made, profile error).
     pub notes: Vec<String>,
+    /// Named text results (a choice's rule and reason): top-level keys of the stage's JSON.
+    pub texts: BTreeMap<String, String>,
 }
 
 impl Output {
@@ -127,6 +132,12 @@ impl Output {
     /// Add a figure.
     pub fn figure(&mut self, name: &str, svg: String) -> &mut Self {
         self.figures.push((name.into(), svg));
+        self
+    }
+    /// Add a text result (a top-level key of the stage's JSON; not one of its fixed keys).
+    pub fn text(&mut self, name: &str, v: impl Into<String>) -> &mut Self {
+        debug_assert!(!RESULT_KEYS.contains(&name), "text `{name}` shadows a result key");
+        self.texts.insert(name.into(), v.into());
         self
     }
     /// Add a note.

@@ -155,6 +155,11 @@ pub fn undeclared(kind: &Kind, out: &Output) -> Vec<String> {
             bad.push(format!("measurement `{}`", c.id));
         }
     }
+    for t in out.texts.keys() {
+        if !o.has_text(t) {
+            bad.push(format!("text `{t}`"));
+        }
+    }
     bad
 }
 
@@ -183,6 +188,7 @@ mod tests {
             columns: &["t_s", "l_m"],
         }],
         measurements: &["col-runout"],
+        texts: &[],
     };
 
     #[test]

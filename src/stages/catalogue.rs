@@ -119,7 +119,10 @@ pub fn reference(kinds: &[Kind]) -> String {
         if !o.measurements.is_empty() {
             let _ = writeln!(s, "- measurements: {}", list(o.measurements));
         }
-        if o.scalars.is_empty() && o.tables.is_empty() && o.measurements.is_empty() {
+        if !o.texts.is_empty() {
+            let _ = writeln!(s, "- texts: {}", list(o.texts));
+        }
+        if o.scalars.is_empty() && o.tables.is_empty() && o.measurements.is_empty() && o.texts.is_empty() {
             s.push_str("- publishes figures only\n");
         }
     }

@@ -91,6 +91,9 @@ pub struct Outputs {
     pub tables: &'static [TableDecl],
     /// Measurement ids (what the claims ledger reads; the chapter's results measured).
     pub measurements: &'static [&'static str],
+    /// Text fields (a choice's rule and its reason), published as top-level keys of the
+    /// stage's JSON.
+    pub texts: &'static [&'static str],
 }
 
 /// A kind that publishes nothing by name (a figure only).
@@ -98,6 +101,7 @@ pub const NO_OUTPUTS: Outputs = Outputs {
     scalars: &[],
     tables: &[],
     measurements: &[],
+    texts: &[],
 };
 
 /// Does a declared name cover `name`? Each `*` in it stands for any run of characters
@@ -133,6 +137,10 @@ impl Outputs {
     /// Is the measurement id declared?
     pub fn has_measurement(&self, id: &str) -> bool {
         self.measurements.iter().any(|d| covers(d, id))
+    }
+    /// Is the text field `name` declared?
+    pub fn has_text(&self, name: &str) -> bool {
+        self.texts.contains(&name)
     }
     /// Is `col` a column of the declared table `table`?
     pub fn has_column(&self, table: &str, col: &str) -> bool {

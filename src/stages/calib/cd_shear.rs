@@ -198,6 +198,7 @@ pub const SHEAR_KIND: Kind = Kind {
             },
         ],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: Some(shear_cost),

@@ -142,6 +142,7 @@ pub const SHEAR_FIGURE_KIND: Kind = Kind {
             columns: &["inertial_number", "mu", "mu_se"],
         }],
         measurements: &["macro-friction"],
+        texts: &[],
     },
     reads: None,
     cost: None,

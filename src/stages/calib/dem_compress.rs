@@ -146,6 +146,7 @@ pub const COMPRESS_KIND: Kind = Kind {
             columns: &["axial_strain", "axial_stress_pa", "lateral_stress_pa"],
         }],
         measurements: &["youngs-modulus"],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

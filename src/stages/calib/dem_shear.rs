@@ -194,6 +194,7 @@ pub const SHEAR_KIND: Kind = Kind {
             },
         ],
         measurements: &["friction-angle"],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

@@ -6,6 +6,7 @@
 pub mod cd_shear;
 pub mod cd_shear_figure;
 pub mod dem_calibration;
+pub mod dem_choice;
 pub mod dem_compress;
 pub mod dem_shear;
 
@@ -15,7 +16,7 @@ pub const KINDS: &[crate::stages::Kind] = &[
     dem_shear::SHEAR_KIND,
     dem_compress::COMPRESS_KIND,
     dem_calibration::POINT_KIND,
-    dem_calibration::CALIB_KIND,
+    dem_choice::CALIB_KIND,
     cd_shear::SHEAR_KIND,
     cd_shear_figure::SHEAR_FIGURE_KIND,
 ];

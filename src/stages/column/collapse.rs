@@ -267,6 +267,7 @@ pub const KIND: Kind = Kind {
             "height-undisturbed", "inertial-number-dense", "motion-persists-6tau", "mu-e-energy", "mu-e-runout",
             "runout-eq4.6", "spreading-ceases-3tau",
         ],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

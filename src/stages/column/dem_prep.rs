@@ -190,6 +190,7 @@ pub const PREP_KIND: Kind = Kind {
             },
         ],
         measurements: &["packing-fraction"],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

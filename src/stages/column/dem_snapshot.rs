@@ -213,6 +213,7 @@ pub const SNAPSHOT_KIND: Kind = Kind {
             columns: &["r_m", "x_m", "y_m"],
         }],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: None,

@@ -201,6 +201,7 @@ pub const PAIR_KIND: Kind = Kind {
         measurements: &[
             "r6-compaction-loss", "r6-dense-longer-runout", "r6-front-shape", "r6-peak-ek",
         ],
+        texts: &[],
     },
     reads: None,
     cost: None,

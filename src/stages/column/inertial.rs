@@ -162,6 +162,7 @@ pub const INERTIAL_KIND: Kind = Kind {
         measurements: &[
             "dem-collisional", "mui-dense-regime", "mui-short-max-i", "mui-tall-max-i",
         ],
+        texts: &[],
     },
     reads: None,
     cost: None,

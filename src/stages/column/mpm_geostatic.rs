@@ -234,6 +234,7 @@ pub const GEOSTATIC_KIND: Kind = Kind {
             },
         ],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: Some(geostatic_cost),

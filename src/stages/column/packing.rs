@@ -106,6 +106,7 @@ pub const PACKING_KIND: Kind = Kind {
         measurements: &[
             "dense-dilates-initially", "loose-densifies", "loose-dilates-initially", "same-end-packing",
         ],
+        texts: &[],
     },
     reads: None,
     cost: None,

@@ -212,6 +212,7 @@ pub const SCHEME_KIND: Kind = Kind {
             columns: &["shape", "x_mm", "y_mm"],
         }],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: None,

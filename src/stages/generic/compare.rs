@@ -237,6 +237,7 @@ pub const KIND: Kind = Kind {
             columns: &["comparison", "ratio", "x", "y_a", "y_b"],
         }],
         measurements: &["*"],
+        texts: &[],
     },
     reads: Some(reads),
     cost: None,

@@ -341,6 +341,7 @@ pub const KIND: Kind = Kind {
             },
         ],
         measurements: &["exponent-high", "exponent-low", "exponent-single"],
+        texts: &[],
     },
     reads: Some(reads),
     cost: None,

@@ -173,6 +173,7 @@ pub const KIND: Kind = Kind {
             ],
         }],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: None,

@@ -596,6 +596,7 @@ pub const KIND: Kind = Kind {
         scalars: &["panel*_points", "profile_error"],
         tables: &[],
         measurements: &[],
+        texts: &[],
     },
     reads: Some(reads),
     cost: None,

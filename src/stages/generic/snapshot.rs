@@ -603,6 +603,7 @@ pub const KIND: Kind = Kind {
         scalars: &["colour_max", "panel*", "range_*_hi", "range_*_lo"],
         tables: &[],
         measurements: &[],
+        texts: &[],
     },
     reads: Some(reads),
     cost: None,

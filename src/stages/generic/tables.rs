@@ -439,6 +439,7 @@ pub const KIND: Kind = Kind {
             columns: &["parameter", "source", "unit", "value"],
         }],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: None,

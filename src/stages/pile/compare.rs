@@ -577,6 +577,7 @@ pub const KIND: Kind = Kind {
             "dem-weak-dependence-high", "mpm-cavity-larger-uniform", "mpm-dem-front", "mpm-gradient-longer-low",
             "mpm-tf-gradient-shorter", "mpm-weak-dependence-high", "restitution-no-difference",
         ],
+        texts: &[],
     },
     reads: None,
     cost: None,

@@ -213,6 +213,7 @@ pub const KIND: Kind = Kind {
             "column-mpm-longer-tall", "column-similar-short", "pile-agreement", "pile-dem-longer-low",
             "power-law-energy",
         ],
+        texts: &[],
     },
     reads: None,
     cost: None,

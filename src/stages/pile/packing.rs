@@ -195,6 +195,7 @@ pub const KIND: Kind = Kind {
             columns: &["phi", "t"],
         }],
         measurements: &["densifies", "dilation-until-20"],
+        texts: &[],
     },
     reads: None,
     cost: None,

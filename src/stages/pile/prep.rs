@@ -273,6 +273,7 @@ pub const PREP_KIND: Kind = Kind {
             },
         ],
         measurements: &["packing", "slope"],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

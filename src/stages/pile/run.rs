@@ -342,6 +342,7 @@ pub const RUN_KIND: Kind = Kind {
             },
         ],
         measurements: &["cavity-not-filled", "cavity-partly-filled", "wall-contact"],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

@@ -379,6 +379,7 @@ pub const RUNOUT_KIND: Kind = Kind {
             ],
         }],
         measurements: &["alpha-lf", "dem-tf-flat", "vs-high", "vs-low"],
+        texts: &[],
     },
     reads: None,
     cost: None,

@@ -729,6 +729,7 @@ pub const KIND: Kind = Kind {
             "ppc-eky-peak-high", "ppc-high-longer", "ppc-low-longer", "ppc-tf-unaffected", "t1-both-regimes",
             "t1-free-fall", "tau-grows",
         ],
+        texts: &[],
     },
     reads: None,
     cost: None,

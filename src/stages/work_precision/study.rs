@@ -134,6 +134,7 @@ pub const KIND: Kind = Kind {
             },
         ],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: Some(cost),

@@ -539,6 +539,7 @@ pub const KIND: Kind = Kind {
             },
         ],
         measurements: &[],
+        texts: &[],
     },
     reads: None,
     cost: None,
