@@ -284,21 +284,55 @@ pub struct ScalingPoint {
     pub steps: u64,
     /// Wall time per step [s].
     pub s_per_step: f64,
+    /// Process CPU time per step [s] (Linux /proc, 10 ms ticks; 0 elsewhere): on a shared
+    /// machine, cpu/wall below the thread count shows the cores the run did not get.
+    pub cpu_s_per_step: f64,
     /// Listed pairs per grain at the end.
     pub pairs_per_grain: f64,
     /// Grain–grain contacts per grain at the end.
     pub contacts_per_grain: f64,
 }
 
+/// Memory order of the grains of a cost-growth scene ([`scaling_point`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GrainOrder {
+    /// As the lattice was built and the copies tiled: grains that are neighbours in space
+    /// are near in memory (a settled column's order).
+    Lattice,
+    /// The same grains shuffled (Fisher–Yates, [`SplitMix64`] with this seed), contact
+    /// histories following their grains: the order a long mixed flow leaves.
+    Shuffled(u64),
+}
+
+/// Seed of `bench scaling`'s shuffle.
+pub const SCALING_SHUFFLE_SEED: u64 = 27;
+
+/// A deterministic random permutation of `0..n` (Fisher–Yates, [`SplitMix64`] with `seed`).
+pub fn shuffled_order(n: usize, seed: u64) -> Vec<usize> {
+    let mut rng = SplitMix64(seed);
+    let mut order: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        let j = ((rng.next_f64() * (i + 1) as Real) as usize).min(i);
+        order.swap(i, j);
+    }
+    order
+}
+
 /// Cost growth of the DEM step with the chapter's physics (rolling resistance with the
 /// implicit dashpot, ledger on, Δt = [`bench_dt`]): the settled reference column, cut to
 /// its first `n` grains (its bottom layers) or repeated side by side (copies at L_0
-/// spacing, contact histories kept) up to `n`, gate removed, `steps` steps timed after
-/// 100 warm-up steps. The packing and the contact network per grain are the same at every
-/// size, so the time per step should grow like n (neighbour build, pair and grain loops
-/// are all O(n)).
-pub fn scaling_point(base: &World, n: usize, threads: usize, steps: u64) -> Result<ScalingPoint, DemError> {
-    scaling_point_with(base, n, threads, steps, None)
+/// spacing, contact histories kept) up to `n`, gate removed, the grains in `order`,
+/// `steps` steps timed after 100 warm-up steps. The packing and the contact network per
+/// grain are the same at every size, so the time per step should grow like n (neighbour
+/// build, pair and grain loops are all O(n)).
+pub fn scaling_point(
+    base: &World,
+    n: usize,
+    threads: usize,
+    steps: u64,
+    order: GrainOrder,
+) -> Result<ScalingPoint, DemError> {
+    scaling_point_with(base, n, threads, steps, None, order)
 }
 
 /// [`scaling_point`] with the world's `team_min_grains` set (None: default): `Some(0)`
@@ -310,6 +344,7 @@ pub fn scaling_point_with(
     threads: usize,
     steps: u64,
     team_min: Option<usize>,
+    order: GrainOrder,
 ) -> Result<ScalingPoint, DemError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
@@ -355,6 +390,21 @@ pub fn scaling_point_with(
                 }
             }
         }
+        if let GrainOrder::Shuffled(seed) = order {
+            // grain order[p] becomes grain p; histories follow their grains
+            let order = shuffled_order(st.len(), seed);
+            let mut new_of = vec![0u32; order.len()];
+            for (p, &a) in order.iter().enumerate() {
+                new_of[a] = p as u32;
+            }
+            st = st.permuted(&order);
+            for (a, b, _) in hist.pairs.iter_mut() {
+                (*a, *b) = (new_of[*a as usize], new_of[*b as usize]);
+            }
+            for (_, a, _) in hist.walls.iter_mut() {
+                *a = new_of[*a as usize];
+            }
+        }
         let mut walls = box_walls(copies as Real * l0);
         walls.retain(|w| w.name != "gate");
         let mut w = World::new(base.params.clone(), st, walls, None)?;
@@ -364,16 +414,77 @@ pub fn scaling_point_with(
         }
         w.restore_histories(&hist);
         w.run(100)?;
+        let c0 = process_cpu_s();
         let t0 = Instant::now();
         w.run(steps)?;
         let s_per_step = t0.elapsed().as_secs_f64() / steps.max(1) as f64;
+        let cpu_s_per_step = (process_cpu_s() - c0) / steps.max(1) as f64;
         let grains = w.state.len();
         Ok(ScalingPoint {
             grains,
             steps,
             s_per_step,
+            cpu_s_per_step,
             pairs_per_grain: w.pair_count() as f64 / grains as f64,
             contacts_per_grain: 2.0 * w.contact_count() as f64 / grains as f64,
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::state::State;
+
+    #[test]
+    fn shuffled_order_is_a_deterministic_permutation() {
+        let a = shuffled_order(1000, SCALING_SHUFFLE_SEED);
+        assert_eq!(a, shuffled_order(1000, SCALING_SHUFFLE_SEED));
+        assert_ne!(a, shuffled_order(1000, SCALING_SHUFFLE_SEED + 1));
+        let mut seen = vec![false; 1000];
+        for &i in &a {
+            assert!(!seen[i]);
+            seen[i] = true;
+        }
+        // shuffled, not a near-identity
+        assert!(a.iter().enumerate().filter(|&(p, &i)| p == i).count() < 20);
+    }
+
+    #[test]
+    fn permuted_state_keeps_every_quantity_with_its_grain() {
+        let mut s = State::new();
+        for k in 0..50 {
+            let id = s.insert(k as Real, 2.0 * k as Real, 1e-3 * (1.0 + k as Real), 2500.0);
+            s.vx[id.0 as usize] = 3.0 * k as Real;
+            s.vy[id.0 as usize] = 4.0 * k as Real;
+            s.w[id.0 as usize] = 5.0 * k as Real;
+            s.theta[id.0 as usize] = 6.0 * k as Real;
+        }
+        s.set_motion(7, crate::dem::state::Motion::Prescribed);
+        let order = shuffled_order(50, 3);
+        let p = s.permuted(&order);
+        for (q, &a) in order.iter().enumerate() {
+            for (u, v) in [
+                (&p.x, &s.x),
+                (&p.y, &s.y),
+                (&p.vx, &s.vx),
+                (&p.vy, &s.vy),
+                (&p.w, &s.w),
+                (&p.theta, &s.theta),
+                (&p.r, &s.r),
+                (&p.m, &s.m),
+                (&p.inv_m, &s.inv_m),
+                (&p.inertia, &s.inertia),
+                (&p.inv_i, &s.inv_i),
+            ] {
+                assert_eq!(u[q].to_bits(), v[a].to_bits());
+            }
+        }
+        // and back
+        let mut inv = vec![0; 50];
+        for (q, &a) in order.iter().enumerate() {
+            inv[a] = q;
+        }
+        assert_eq!(p.permuted(&inv), s);
+    }
 }
