@@ -199,9 +199,17 @@ pub enum Cmd {
         /// Scaling only: write the figure (SVG) here.
         #[arg(long)]
         svg: Option<PathBuf>,
-        /// Scaling only: largest size (default 100000).
+        /// Scaling only: largest size (default 100000; 1000000 adds the DEM's 1e6 row, about
+        /// a minute more).
         #[arg(long, default_value_t = 100_000)]
         max_n: usize,
+        /// Scaling only: the DEM's grains in the lattice's order (neighbours in space near
+        /// in memory), not shuffled.
+        #[arg(long)]
+        lattice_order: bool,
+        /// Scaling only: the DEM row alone (no MPM, no CD).
+        #[arg(long)]
+        dem_only: bool,
     },
     /// Remove what granrepro made: the cache and state (and with --reports, the files it
     /// published under reports/). Other files are never touched.
@@ -574,6 +582,8 @@ pub fn run_cli(cli: Cli) -> i32 {
             repeat,
             svg,
             max_n,
+            lattice_order,
+            dem_only,
         } => bench(
             engine,
             steps,
@@ -585,6 +595,8 @@ pub fn run_cli(cli: Cli) -> i32 {
                 repeat,
                 svg,
                 max_n,
+                lattice_order,
+                dem_only,
             },
         ),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),

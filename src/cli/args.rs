@@ -47,8 +47,9 @@ pub enum BenchEngine {
     Mpm,
     /// CD deposit of the Siconos reference script (25 × 20 and 40 × 25 disks, h = 2e-3 s).
     Cd,
-    /// Cost growth: wall time per step against grain / point count (1e3 … 1e5) for DEM,
-    /// CD and MPM, one thread; a table, JSON lines and `--svg FILE`.
+    /// Cost growth: wall time per step against grain / point count (1e3 … 1e5; the DEM to
+    /// 1e6 with `--max-n 1000000`) for DEM, CD and MPM, one thread, the DEM's grains
+    /// shuffled (`--lattice-order`: as built); a table, JSON lines and `--svg FILE`.
     Scaling,
     /// In-step parallelism crossover: DEM step time on 1 thread and on every thread of the
     /// machine (thread team forced on) for the settled column cut to 250 … 5848 grains.

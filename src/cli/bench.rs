@@ -14,6 +14,8 @@ pub struct BenchOpts {
     pub(super) repeat: usize,
     pub(super) svg: Option<PathBuf>,
     pub(super) max_n: usize,
+    pub(super) lattice_order: bool,
+    pub(super) dem_only: bool,
 }
 
 /// A LAMMPS-style timer table: section, seconds, share of the total.
@@ -211,7 +213,7 @@ pub(super) fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i
 /// `bench dem-crossover`: µs per step on 1 thread and on `all` threads (team forced on)
 /// by grain count, best of `--repeat`, alternating the two at each size.
 fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
-    use crate::dem::bench::{BenchCase, bench_dt, bench_scene, scaling_point_with};
+    use crate::dem::bench::{BenchCase, GrainOrder, bench_dt, bench_scene, scaling_point_with};
     let (dt, _) = bench_dt(BenchCase::Full);
     let base = match bench_scene(BenchCase::Full, dt) {
         Ok(w) => w,
@@ -237,7 +239,7 @@ fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
         let (mut t1, mut t2) = (f64::INFINITY, f64::INFINITY);
         for _ in 0..o.repeat.max(1) {
             for (t, best) in [(1, &mut t1), (multi, &mut t2)] {
-                match scaling_point_with(&base, n, t, st, Some(0)) {
+                match scaling_point_with(&base, n, t, st, Some(0), GrainOrder::Lattice) {
                     Ok(p) => *best = best.min(p.s_per_step),
                     Err(e) => {
                         eprintln!("error: bench dem-crossover ({n}): {e}");
@@ -255,14 +257,27 @@ fn bench_dem_crossover(steps: Option<u64>, o: &BenchOpts, all: usize) -> i32 {
     0
 }
 
-/// `bench scaling`: seconds per step against size for the three engines, one thread.
+/// `bench scaling`: seconds per step against size for the three engines, one thread. The
+/// DEM's grains are shuffled (as a mixed flow leaves them) unless `--lattice-order`; its
+/// row goes on to 1e6 grains with `--max-n 1000000`, the MPM's and CD's stop at 1e5.
 fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
+    use crate::dem::bench::{GrainOrder, SCALING_SHUFFLE_SEED};
     use crate::report::plot::{Chart, Series, Style};
     let threads = o.threads.first().copied().unwrap_or(1).max(1);
-    let sizes: Vec<usize> = [1_000usize, 3_000, 10_000, 30_000, 100_000]
+    let dem_sizes: Vec<usize> = [1_000usize, 3_000, 10_000, 30_000, 100_000, 1_000_000]
         .into_iter()
         .filter(|&n| n <= o.max_n)
         .collect();
+    let sizes: Vec<usize> = if o.dem_only {
+        Vec::new()
+    } else {
+        dem_sizes.iter().copied().filter(|&n| n <= 100_000).collect()
+    };
+    let order = if o.lattice_order {
+        GrainOrder::Lattice
+    } else {
+        GrainOrder::Shuffled(SCALING_SHUFFLE_SEED)
+    };
     // work per size ~ n × steps: fewer steps for the big ones, at least 20
     let steps_for = |n: usize, base: u64| steps.unwrap_or((base * 10_000 / n as u64).clamp(20, base * 10));
     let best = |f: &mut dyn FnMut() -> f64| (0..o.repeat.max(1)).map(|_| f()).fold(f64::INFINITY, f64::min);
@@ -276,23 +291,32 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
             return 1;
         }
     };
-    for &n in &sizes {
-        let st = steps_for(n, 200);
+    for &n in &dem_sizes {
+        // 2·10⁷ grain-steps a size (at least 20 steps)
+        let st = steps.unwrap_or((20_000_000 / n as u64).clamp(20, 20_000));
         let mut extra = String::new();
         let mut err = None;
-        let s = best(&mut || match crate::dem::bench::scaling_point(&base, n, threads, st) {
-            Ok(p) => {
-                extra = format!(
-                    "{:.2} pairs, {:.2} contacts per grain",
-                    p.pairs_per_grain, p.contacts_per_grain
-                );
-                p.s_per_step
-            }
-            Err(e) => {
-                err = Some(e.to_string());
-                f64::NAN
-            }
-        });
+        let mut fastest = f64::INFINITY;
+        let s = best(
+            &mut || match crate::dem::bench::scaling_point(&base, n, threads, st, order) {
+                Ok(p) if p.s_per_step >= fastest => p.s_per_step,
+                Ok(p) => {
+                    fastest = p.s_per_step;
+                    extra = format!(
+                        "{:.2} pairs, {:.2} contacts per grain, {} order, cpu/wall {:.2}",
+                        p.pairs_per_grain,
+                        p.contacts_per_grain,
+                        if o.lattice_order { "lattice" } else { "shuffled" },
+                        p.cpu_s_per_step / p.s_per_step
+                    );
+                    p.s_per_step
+                }
+                Err(e) => {
+                    err = Some(e.to_string());
+                    f64::NAN
+                }
+            },
+        );
         if let Some(e) = err {
             eprintln!("error: bench scaling (dem, {n}): {e}");
             return 1;
@@ -390,14 +414,17 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
                 Series::new(
                     "linear in n (through DEM at 1e3)",
                     Style::Dashed,
-                    sizes.iter().map(|&n| (n as f64, k * n as f64)).collect(),
+                    dem_sizes.iter().map(|&n| (n as f64, k * n as f64)).collect(),
                     7,
                 )
             }))
             .collect();
         let chart = Chart::log_log(
             format!("Cost growth: wall time per step vs size ({threads} thread(s))"),
-            "granrepro bench scaling; DEM: settled column with rolling resistance + ledger; MPM: GIMP + Mohr-Coulomb column; CD: Siconos deposit".into(),
+            format!(
+                "granrepro bench scaling; DEM: settled column with rolling resistance + ledger, grains in {} order; MPM: GIMP + Mohr-Coulomb column; CD: Siconos deposit",
+                if o.lattice_order { "lattice" } else { "shuffled" }
+            ),
             "grains / material points",
             "wall time per step [s]",
             series,

@@ -176,6 +176,25 @@ impl State {
             inv_i: pick(&self.inv_i),
         }
     }
+    /// The grains in the order `order` (grain `order[p]` of `self` becomes grain `p`;
+    /// `order` is a permutation of `0..len`).
+    pub fn permuted(&self, order: &[usize]) -> State {
+        assert_eq!(order.len(), self.len(), "a permutation of every grain");
+        let pick = |v: &Vec<Real>| order.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        State {
+            x: pick(&self.x),
+            y: pick(&self.y),
+            vx: pick(&self.vx),
+            vy: pick(&self.vy),
+            w: pick(&self.w),
+            theta: pick(&self.theta),
+            r: pick(&self.r),
+            m: pick(&self.m),
+            inv_m: pick(&self.inv_m),
+            inertia: pick(&self.inertia),
+            inv_i: pick(&self.inv_i),
+        }
+    }
     /// Total mass [kg/m].
     pub fn total_mass(&self) -> Real {
         self.m.iter().sum()
