@@ -345,3 +345,41 @@ fn run_on_one_thread(p: &Pipeline, steps: u64) -> i32 {
     );
     0
 }
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::enabled;
+
+    /// A study kind (`pile-run`, `column-collapse`) is classified by its `method:`, not by a
+    /// kind-name prefix: before, a CD or MPM pile got no leave-out row (its kind has no
+    /// `cd-`/`mpm-` prefix).
+    #[test]
+    fn a_study_kind_is_classified_by_its_method() {
+        let cd = enabled(
+            "pile-cd-g",
+            "pile-run",
+            &json!({ "method": "cd", "cd": { "rolling_friction": 0.1 } }),
+        )
+        .expect("a CD pile simulates");
+        assert_eq!((cd.engine, cd.rolling), ("cd", Some(false)));
+        let mpm = enabled(
+            "col-mpm-a1",
+            "column-collapse",
+            &json!({ "method": "mpm", "mpm": { "wall_friction": 0.3 } }),
+        )
+        .expect("an MPM column simulates");
+        assert_eq!(mpm.engine, "mpm");
+        assert!(mpm.wall_friction);
+        // A DEM block alone does not make a CD stage a DEM one.
+        let cd_with_dem = enabled("x", "pile-run", &json!({ "method": "cd", "dem": {}, "cd": {} })).unwrap();
+        assert_eq!(cd_with_dem.engine, "cd");
+        // A method's own kinds keep their prefix; a drawing kind simulates nothing.
+        assert_eq!(
+            enabled("p", "dem-column-prep", &json!({ "dem": {} })).unwrap().engine,
+            "dem"
+        );
+        assert!(enabled("fig", "plot", &json!({ "panels": [] })).is_none());
+    }
+}
