@@ -929,6 +929,35 @@ fn matrix_key_that_is_not_a_parameter_is_refused_with_file_stage_and_key() {
     );
 }
 
+/// A profile's matrix with the stage's own key but a value that is not a list
+/// (`profiles: { quick: { matrix: { seed: 3 } } }`) was refused with "a profile's matrix must
+/// sweep the stage's own matrix key", which blamed the key the user got right. It now names
+/// the key and asks for a list. Found by the loader property test once the shipped pipeline
+/// had a profile matrix on a second stage.
+#[test]
+fn profile_matrix_value_that_is_not_a_list_is_named_by_its_key() {
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1, 2] }\n    profiles: { quick: { matrix: { seed: 3 } } }\n",
+    );
+    let (code, out, err) = t.cli(&["run", "--dry-run"]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(
+        err.contains("stages[p].profiles.quick.matrix.seed") && err.contains("must be a list"),
+        "{err}"
+    );
+    assert!(!err.contains("must sweep the stage's own matrix key"), "{err}");
+    // The wrong key keeps its own message.
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: p\n    kind: psd\n    matrix: { seed: [1, 2] }\n    profiles: { quick: { matrix: { n: [50] } } }\n",
+    );
+    let (code, _, err) = t.cli(&["run", "--dry-run"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("must sweep the stage's own matrix key") && err.contains("seed"),
+        "{err}"
+    );
+}
+
 /// Issue 29.2: an empty scene ran the defaults, which failed after running (exit 1: "the
 /// PSD input `psd` has 3000 grains; a 0.0039 m² column needs about 3824"). It is refused.
 #[test]

@@ -156,13 +156,13 @@ pub(crate) fn load_profile(
                 continue;
             };
             let l = line.and_then(|ln| locate(&text, &["profiles", pname, "matrix"], ln));
-            let parsed: Option<BTreeMap<String, Vec<Yaml>>> = serde_yaml::from_value(mv).ok();
-            let same_key = match (&parsed, &entry.matrix) {
-                (Some(pm), Some(m)) => pm.len() == 1 && pm.keys().next() == m.keys().next(),
+            let base = entry.matrix.as_ref().and_then(|m| m.keys().next().cloned());
+            let parsed: Option<BTreeMap<String, Yaml>> = serde_yaml::from_value(mv).ok();
+            let same_key = match (&parsed, &base) {
+                (Some(pm), Some(k)) => pm.len() == 1 && pm.keys().next() == Some(k),
                 _ => false,
             };
             if !same_key {
-                let base = entry.matrix.as_ref().and_then(|m| m.keys().next().cloned());
                 diags.push(
                     path,
                     l,
@@ -174,8 +174,29 @@ pub(crate) fn load_profile(
                     },
                 );
                 profile_matrix_bad = true;
-            } else if pname == profile {
-                entry.matrix = parsed;
+                continue;
+            }
+            // The right key: its values must be a list, as the stage's own.
+            let (k, v) = parsed.into_iter().flatten().next().expect("one key, checked above");
+            match serde_yaml::from_value::<Vec<Yaml>>(v) {
+                Ok(values) => {
+                    if pname == profile {
+                        entry.matrix = Some(BTreeMap::from([(k, values)]));
+                    }
+                }
+                Err(_) => {
+                    let lk = line
+                        .and_then(|ln| locate(&text, &["profiles", pname, "matrix", &k], ln))
+                        .or(l);
+                    diags.push(
+                        path,
+                        lk,
+                        format!("stages[{}].profiles.{pname}.matrix.{k}", entry.id),
+                        format!("the values of `{k}` must be a list"),
+                        format!("write `{k}: [v1, v2, ..]` (one stage per value)"),
+                    );
+                    profile_matrix_bad = true;
+                }
             }
         }
         if profile_matrix_bad {

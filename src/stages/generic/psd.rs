@@ -46,10 +46,11 @@ impl Validate for PsdParams {
         let mut c = Checker::new("");
         c.positive("d_min_mm", self.d_min_mm);
         c.positive("d_max_mm", self.d_max_mm);
+        // A constraint between two keys names both, whichever of them was mistyped.
         c.check(
             self.d_max_mm > self.d_min_mm,
             "d_max_mm",
-            self.d_max_mm,
+            format!("{} (with d_min_mm = {})", self.d_max_mm, self.d_min_mm),
             &format!("> d_min_mm ({})", self.d_min_mm),
         );
         c.in_closed("beta_a", self.beta_a, 0.05, 100.0);
