@@ -161,26 +161,17 @@ impl State {
     /// Keep only the grains for which `keep(i)` is true (order preserved).
     pub fn retain(&self, keep: impl Fn(usize) -> bool) -> State {
         let idx: Vec<usize> = (0..self.len()).filter(|&i| keep(i)).collect();
-        let pick = |v: &Vec<Real>| idx.iter().map(|&i| v[i]).collect::<Vec<_>>();
-        State {
-            x: pick(&self.x),
-            y: pick(&self.y),
-            vx: pick(&self.vx),
-            vy: pick(&self.vy),
-            w: pick(&self.w),
-            theta: pick(&self.theta),
-            r: pick(&self.r),
-            m: pick(&self.m),
-            inv_m: pick(&self.inv_m),
-            inertia: pick(&self.inertia),
-            inv_i: pick(&self.inv_i),
-        }
+        self.gather(&idx)
     }
     /// The grains in the order `order` (grain `order[p]` of `self` becomes grain `p`;
     /// `order` is a permutation of `0..len`).
     pub fn permuted(&self, order: &[usize]) -> State {
         assert_eq!(order.len(), self.len(), "a permutation of every grain");
-        let pick = |v: &Vec<Real>| order.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        self.gather(order)
+    }
+    /// Grain `idx[p]` of `self` as grain `p`, every per-grain array alike.
+    fn gather(&self, idx: &[usize]) -> State {
+        let pick = |v: &Vec<Real>| idx.iter().map(|&i| v[i]).collect::<Vec<_>>();
         State {
             x: pick(&self.x),
             y: pick(&self.y),
