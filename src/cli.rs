@@ -154,6 +154,19 @@ pub enum Cmd {
         #[arg(long = "set")]
         sets: Vec<String>,
     },
+    /// Keep the profile's results in `results/<profile>/` (for the paper profile, committed
+    /// to the repository): each stage with a complete cache entry, its published tables,
+    /// figures and JSON, the index page, and a lock recording each stage's cache key and the
+    /// hashes of the files and of the source code it was built from. Large files are left
+    /// out (listed in the lock).
+    Keep {
+        /// Profile.
+        #[arg(long, value_enum, default_value = "paper")]
+        profile: ProfileArg,
+        /// Largest file kept [MB] (per-particle snapshot tables and fields are larger).
+        #[arg(long, default_value_t = 4.0)]
+        max_file_mb: f64,
+    },
     /// The claims ledger (stages/ledger.yaml) judged on the profile's published results:
     /// one line per claim of the chapter, its value, ours (mean ± spread), the verdict.
     Claims {
@@ -276,15 +289,18 @@ pub fn main() -> i32 {
 pub fn run_cli(cli: Cli) -> i32 {
     let proj = project_of(&cli.pipeline);
     let shared_cache = match cli.cmd {
-        Cmd::Run { .. } | Cmd::Status { .. } | Cmd::Clean { .. } | Cmd::Plan { .. } | Cmd::Export { .. } => {
-            match cache_dir(cli.cache.clone()) {
-                Ok(c) => c,
-                Err(m) => {
-                    eprintln!("error: {m}");
-                    return 2;
-                }
+        Cmd::Run { .. }
+        | Cmd::Status { .. }
+        | Cmd::Clean { .. }
+        | Cmd::Plan { .. }
+        | Cmd::Export { .. }
+        | Cmd::Keep { .. } => match cache_dir(cli.cache.clone()) {
+            Ok(c) => c,
+            Err(m) => {
+                eprintln!("error: {m}");
+                return 2;
             }
-        }
+        },
         _ => None,
     };
     let proj = match &shared_cache {
@@ -539,7 +555,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                             Freshness::Stale(r) => println!("  stale    {id}: {}", r.join("; ")),
                         }
                     }
-                    0
+                    crate::cli::commands::print_committed(&p)
                 }
                 Err(d) => {
                     eprintln!("{d}");
@@ -547,6 +563,13 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
+        Cmd::Keep { profile, max_file_mb } => match load(&cli.pipeline, profile.name(), &[]) {
+            Ok(p) => crate::cli::commands::keep(&p, &proj, max_file_mb),
+            Err(d) => {
+                eprintln!("{d}");
+                2
+            }
+        },
         Cmd::Claims { profile } => match load(&cli.pipeline, profile.name(), &[]) {
             Ok(p) => crate::cli::commands::print_claims(&p, &proj.reports.join(profile.name())),
             Err(d) => {

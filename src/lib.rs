@@ -23,6 +23,7 @@ pub mod fit;
 pub mod math;
 pub mod mpm;
 pub mod pipeline;
+pub mod provenance;
 pub mod report;
 pub mod sample;
 pub mod scene;

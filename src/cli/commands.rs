@@ -261,3 +261,81 @@ pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path)
     }
     0
 }
+
+/// `status`, second part: the committed results of the profile (`results/<profile>/`),
+/// when there are any. Exit 1 when a committed file does not match its lock.
+pub(crate) fn print_committed(p: &crate::pipeline::Pipeline) -> i32 {
+    use crate::pipeline::store::{self, Committed};
+    let dir = store::dir_of(&p.root, &p.profile);
+    let lock = match store::read_lock(&dir) {
+        Ok(Some(l)) => l,
+        Ok(None) => return 0,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return 2;
+        }
+    };
+    println!("committed results ({}):", dir.display());
+    let mut corrupt = false;
+    let states = store::status(p, &dir, &lock);
+    for (id, st) in &states {
+        match st {
+            Committed::Fresh => println!("  fresh    {id}"),
+            Committed::Stale(r) => println!("  stale    {id}: {}", r.join("; ")),
+            Committed::ChangedCode(r) => println!("  code     {id}: built from changed code: {}", r.join(", ")),
+            Committed::Corrupt(r) => {
+                corrupt = true;
+                println!("  CORRUPT  {id}: {}", r.join("; "));
+            }
+        }
+    }
+    let gone: Vec<&String> = lock.stages.keys().filter(|id| p.get(id).is_none()).collect();
+    for id in gone {
+        println!("  removed  {id}: no longer in the pipeline");
+    }
+    if corrupt {
+        eprintln!(
+            "error: committed results do not match their lock (hand-edited or corrupted)\n  help: restore them from version control, or re-run the stages and `granrepro keep`"
+        );
+        1
+    } else {
+        0
+    }
+}
+
+/// `keep`: write `results/<profile>/` from the cache.
+pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f64) -> i32 {
+    if !(max_file_mb > 0.0) {
+        eprintln!("error: --max-file-mb {max_file_mb}: must be a positive size in MB\n  help: e.g. --max-file-mb 4");
+        return 2;
+    }
+    let caps = crate::pipeline::store::Caps {
+        file: (max_file_mb * 1048576.0) as u64,
+        ..Default::default()
+    };
+    match crate::pipeline::store::keep(p, proj, caps) {
+        Ok(k) => {
+            let dir = crate::pipeline::store::dir_of(&p.root, &p.profile);
+            println!(
+                "kept {} stage(s) from the cache, carried {} committed, {} with nothing to keep; {:.1} MB in {}",
+                k.kept.len(),
+                k.carried.len(),
+                k.missing.len(),
+                k.bytes as f64 / 1048576.0,
+                dir.display()
+            );
+            for (id, f, n) in &k.left_out {
+                println!(
+                    "  left out {id}: {f} ({:.1} MB; `granrepro run --profile {} --stage {id}` regenerates it)",
+                    *n as f64 / 1048576.0,
+                    p.profile
+                );
+            }
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            1
+        }
+    }
+}

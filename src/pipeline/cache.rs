@@ -269,6 +269,53 @@ impl Cache {
         Some(blake3::hash(&serde_json::to_vec(&canon).ok()?).to_hex().to_string())
     }
 
+    /// Put a verified entry from another store (the committed results, `pipeline::store`)
+    /// in place under `key`: its manifest and the files it lists are copied into a temp
+    /// directory, plus `extra` files (not in the manifest), then renamed into place under the
+    /// key's lock. An entry already in place is kept. The source is verified first.
+    pub fn import(&self, key: &str, from: &Path, extra: &[(&str, &[u8])]) -> anyhow::Result<PathBuf> {
+        Cache::new(from.parent().unwrap_or(from))
+            .verify(from, key)
+            .map_err(|why| anyhow::anyhow!("{}: {why}", from.display()))?;
+        let _in_use = fsio::lock_shared(&self.use_path(key))?;
+        fsio::create_dir_all(&self.root)?;
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".tmp-{key}-"))
+            .tempdir_in(&self.root)
+            .map_err(fsio::err_at("cannot create a temp directory in", &self.root))?;
+        fsio::set_mode(tmp.path(), fsio::DIR_MODE)?;
+        let names: Vec<String> = read_manifest(from)
+            .map_err(anyhow::Error::msg)?
+            .all_files()
+            .map(|(n, _)| n.to_string())
+            .chain(std::iter::once("manifest.json".to_string()))
+            .collect();
+        for n in &names {
+            fsio::write_new(&tmp.path().join(n), &fsio::read(&from.join(n))?)?;
+        }
+        for (n, b) in extra {
+            anyhow::ensure!(safe_file_name(n), "unsafe extra file name `{n}`");
+            fsio::write_new(&tmp.path().join(n), b)?;
+        }
+        let dir = self.entry_dir(key);
+        let _lock = fsio::lock(&self.lock_path(key))?;
+        if self.verify(&dir, key).is_err() {
+            if dir.exists() {
+                fsio::discard_dir(&dir)?;
+            }
+            std::fs::rename(tmp.keep(), &dir).map_err(fsio::err_at("cannot move an imported entry to", &dir))?;
+        }
+        Ok(dir)
+    }
+
+    /// Remove the entry under `key` (under its lock): a committed partial entry that a
+    /// stage must now recompute in full.
+    pub fn remove(&self, key: &str) -> std::io::Result<()> {
+        let dir = self.entry_dir(key);
+        let _lock = fsio::lock(&self.lock_path(key))?;
+        if dir.exists() { fsio::discard_dir(&dir) } else { Ok(()) }
+    }
+
     /// Remove `.tmp-*` / `.trash-*` directories older than `age` (left by killed runs)
     /// whose key no process is using; returns how many were removed.
     pub fn sweep_stale(&self, age: Duration) -> usize {

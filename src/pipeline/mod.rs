@@ -9,14 +9,18 @@ pub mod diag;
 pub mod estimate;
 pub mod export;
 pub mod fsio;
+pub mod keys;
 pub mod load;
 pub mod order;
 pub mod plan;
 pub mod profiles;
+pub mod project;
 pub mod publish;
 pub mod reads;
 pub mod run;
 pub mod spec;
+pub mod status;
+pub mod store;
 pub mod timings;
 pub mod yaml;
 

@@ -8,56 +8,20 @@
 //! [`MAX_REPLANS`] times, before the stages needing it fail saying so.
 
 use std::collections::{BTreeMap, HashMap, HashSet};
-use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
 
-use super::cache::{Cache, KeyRecord, Lookup, STALE_TMP_AGE, write_atomic};
+use super::cache::{KeyRecord, Lookup, STALE_TMP_AGE, write_atomic};
 use super::context::{InputRef, Output, StageCtx};
 use super::dag::closure;
+pub use super::keys::{key_records, stale_reasons};
+pub use super::project::Project;
 use super::publish;
 use super::spec::{Pipeline, Stage};
-
-/// Where a project keeps its cache, state and reports.
-#[derive(Debug, Clone)]
-pub struct Project {
-    /// Directory of pipeline.yaml.
-    pub root: PathBuf,
-    /// The cache.
-    pub cache: Cache,
-    /// `.granrepro/state`: the last key record of each stage per profile (for `status`).
-    pub state: PathBuf,
-    /// `reports/`.
-    pub reports: PathBuf,
-}
-
-impl Project {
-    /// Project rooted at the directory of the pipeline file.
-    pub fn new(root: &Path) -> Project {
-        Project {
-            root: root.to_path_buf(),
-            cache: Cache::new(root.join(".granrepro").join("cache")),
-            state: root.join(".granrepro").join("state"),
-            reports: root.join("reports"),
-        }
-    }
-    /// The same project with its cache at `dir` (`--cache DIR` / `GRANREPRO_CACHE`: one
-    /// content-addressed cache shared by many processes or machines).
-    pub fn with_cache(mut self, dir: &Path) -> Project {
-        self.cache = Cache::new(dir);
-        self
-    }
-    fn state_file(&self, profile: &str, id: &str) -> PathBuf {
-        self.state.join(profile).join(format!("{id}.json"))
-    }
-    /// `reports/<profile>/`.
-    pub fn report_dir(&self, profile: &str) -> PathBuf {
-        self.reports.join(profile)
-    }
-}
+pub use super::status::{Freshness, status};
 
 /// How to run.
 #[derive(Debug, Clone, Default)]
@@ -146,160 +110,6 @@ pub enum RunError {
     /// I/O problem.
     #[error("{0}")]
     Io(#[from] std::io::Error),
-}
-
-/// Compute the key record of every stage in topological order.
-pub fn key_records(p: &Pipeline) -> HashMap<String, (KeyRecord, String)> {
-    let mut out: HashMap<String, (KeyRecord, String)> = HashMap::new();
-    for s in &p.stages {
-        let inputs = s
-            .inputs
-            .iter()
-            .map(|(role, ids)| {
-                (
-                    role.clone(),
-                    ids.iter().map(|id| (id.clone(), out[id].1.clone())).collect(),
-                )
-            })
-            .collect();
-        let rec = KeyRecord {
-            kind: s.kind.clone(),
-            version: s.version,
-            params: s.params.clone(),
-            profile: p.profile.clone(),
-            inputs,
-        };
-        let key = rec.key();
-        out.insert(s.id.clone(), (rec, key));
-    }
-    out
-}
-
-/// Why a stage is stale, one line per reason.
-pub fn stale_reasons(old: &KeyRecord, new: &KeyRecord) -> Vec<String> {
-    let mut r = Vec::new();
-    if old.kind != new.kind {
-        r.push(format!("kind changed ({} → {})", old.kind, new.kind));
-    }
-    if old.version != new.version {
-        r.push(format!("solver version changed ({} → {})", old.version, new.version));
-    }
-    let (a, b) = (flatten(&old.params), flatten(&new.params));
-    for (k, v) in &b {
-        match a.get(k) {
-            Some(o) if o == v => {}
-            Some(o) => r.push(format!("params.{k} changed ({o} → {v})")),
-            None => r.push(format!("params.{k} added ({v})")),
-        }
-    }
-    for k in a.keys() {
-        if !b.contains_key(k) {
-            r.push(format!("params.{k} removed"));
-        }
-    }
-    let oi: HashMap<&str, &str> = old
-        .inputs
-        .iter()
-        .flat_map(|(_, v)| v.iter().map(|(i, k)| (i.as_str(), k.as_str())))
-        .collect();
-    for (_, v) in &new.inputs {
-        for (id, k) in v {
-            match oi.get(id.as_str()) {
-                Some(ok) if ok == k => {}
-                Some(_) => r.push(format!("input `{id}` changed")),
-                None => r.push(format!("input `{id}` added")),
-            }
-        }
-    }
-    if r.is_empty() {
-        r.push("entry missing from the cache".into());
-    }
-    r
-}
-
-fn flatten(v: &Value) -> BTreeMap<String, String> {
-    fn go(prefix: &str, v: &Value, out: &mut BTreeMap<String, String>) {
-        match v {
-            Value::Object(m) => {
-                for (k, x) in m {
-                    go(
-                        &if prefix.is_empty() {
-                            k.clone()
-                        } else {
-                            format!("{prefix}.{k}")
-                        },
-                        x,
-                        out,
-                    );
-                }
-            }
-            other => {
-                out.insert(prefix.to_string(), other.to_string());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    go("", v, &mut out);
-    out
-}
-
-/// Freshness of one stage, for `status`.
-#[derive(Debug, Clone)]
-pub enum Freshness {
-    /// Cached entry valid for the current key.
-    Fresh,
-    /// Ran before with other inputs; the reasons.
-    Stale(Vec<String>),
-    /// Never ran (or the entry is gone).
-    Missing,
-}
-
-/// Status of every stage.
-pub fn status(p: &Pipeline, proj: &Project) -> Vec<(String, Freshness)> {
-    let keys = key_records(p);
-    p.stages
-        .iter()
-        .map(|s| {
-            let (rec, key) = &keys[&s.id];
-            let f = if proj.cache.verify(&proj.cache.entry_dir(key), key).is_ok() {
-                match published_elsewhere(proj, &p.profile, &s.id, key) {
-                    Some(why) => Freshness::Stale(vec![why]),
-                    None => Freshness::Fresh,
-                }
-            } else {
-                match std::fs::read(proj.state_file(&p.profile, &s.id))
-                    .ok()
-                    .and_then(|b| serde_json::from_slice::<KeyRecord>(&b).ok())
-                {
-                    Some(old) => Freshness::Stale(stale_reasons(&old, rec)),
-                    None => Freshness::Missing,
-                }
-            };
-            (s.id.clone(), f)
-        })
-        .collect()
-}
-
-/// When `reports/` holds another run of a stage than the cache entry `key` (e.g. one
-/// made with `--set`), say so: the reports are not what the pipeline now gives.
-fn published_elsewhere(proj: &Project, profile: &str, id: &str, key: &str) -> Option<String> {
-    let rec: Value =
-        serde_json::from_slice(&std::fs::read(proj.report_dir(profile).join(format!("{id}.record.json"))).ok()?)
-            .ok()?;
-    let published = rec.get("key").and_then(|k| k.as_str())?;
-    if published == key {
-        return None;
-    }
-    let over = rec
-        .get("overrides")
-        .and_then(|o| o.as_array())
-        .map(|a| a.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", "))
-        .unwrap_or_default();
-    Some(if over.is_empty() {
-        "cached, but reports/ hold another run; `granrepro run` publishes this one".to_string()
-    } else {
-        format!("cached, but reports/ hold a run with --set {over}; `granrepro run` publishes the pipeline's values")
-    })
 }
 
 /// Plan and run.
@@ -393,6 +203,9 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
     }
 
     proj.cache.sweep_stale(STALE_TMP_AGE);
+    // The profile's committed results (`results/<profile>/`) serve as a second cache.
+    super::store::prepare(p, proj, &set, &keys, &forced, opts.quiet)
+        .map_err(|e| RunError::BadInput(format!("the committed results: {e:#}")))?;
     // Every entry this run reads or writes is marked in use before any is looked up and
     // until all are published, so a concurrent `clean` keeps them.
     let _in_use = proj.cache.hold(

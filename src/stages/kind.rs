@@ -213,6 +213,9 @@ pub type CostFn = fn(&CostCtx) -> Option<Work>;
 pub struct Kind {
     /// Name used in `kind:`.
     pub name: &'static str,
+    /// The file that declares it (`file!()`): where its source closure starts, for the
+    /// results lock (`crate::provenance::sources::closure`).
+    pub source: &'static str,
     /// Version of the kind's numerics (part of the cache key).
     pub version: u32,
     /// One-line description (shown by `granrepro list --kinds`).

@@ -129,6 +129,7 @@ fn run_shear_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `cd-shear-figure`.
 pub const SHEAR_FIGURE_KIND: Kind = Kind {
     name: "cd-shear-figure",
+    source: file!(),
     version: 1,
     about: "fig4-25b: macroscopic friction mu* against inertial number (log x) with the fit and the 0.22 claim",
     params: typed::<ShearFigureParams>,

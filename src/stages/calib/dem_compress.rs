@@ -128,6 +128,7 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-compress`.
 pub const COMPRESS_KIND: Kind = Kind {
     name: "dem-compress",
+    source: file!(),
     version: 2,
     about: "laterally confined uniaxial compression of a DEM column -> constrained and Young's modulus",
     params: typed::<CompressStageParams>,

@@ -167,6 +167,7 @@ fn run_shear(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-shear`.
 pub const SHEAR_KIND: Kind = Kind {
     name: "dem-shear",
+    source: file!(),
     version: 2,
     about: "fig4-03: bi-periodic DEM shear test at several pressures -> critical-state friction angle",
     params: typed::<ShearStageParams>,

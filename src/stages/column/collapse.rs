@@ -189,6 +189,7 @@ fn charts(ctx: &StageCtx, tr: &ColumnTrace, out: &mut Output) -> anyhow::Result<
 /// Kind `column-collapse`.
 pub const KIND: Kind = Kind {
     name: "column-collapse",
+    source: file!(),
     version: 1,
     about: "Granular column collapse by DEM or MPM (`method:`): L(t), H(t), energies, until at rest",
     params,

@@ -168,6 +168,7 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `dem-column-prep`.
 pub const PREP_KIND: Kind = Kind {
     name: "dem-column-prep",
+    source: file!(),
     version: 4,
     about: "DEM column sample: ballistic deposition of the PSD (trimmed to L0 x H0) or hexagonal lattice",
     params: typed::<PrepParams>,

@@ -224,6 +224,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `sweep-compare`.
 pub const KIND: Kind = Kind {
     name: "sweep-compare",
+    source: file!(),
     version: 1,
     about: "comparative claims between two families of runs (ratio of a scalar, paired on a)",
     params: typed::<CompareParams>,

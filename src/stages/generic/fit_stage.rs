@@ -315,6 +315,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `power-law-fit`.
 pub const KIND: Kind = Kind {
     name: "power-law-fit",
+    source: file!(),
     version: 1,
     about: "log-log least-squares power law (1 or 2 regimes) with standard errors, vs quoted exponents",
     params: typed::<FitParams>,

@@ -105,6 +105,7 @@ fn run_psd(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `psd`.
 pub const KIND: Kind = Kind {
     name: "psd",
+    source: file!(),
     version: 1,
     about: "sample disk diameters from a cumulative-beta grading curve (thesis ch. 3)",
     params: typed::<PsdParams>,
@@ -278,6 +279,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `psd-figure`.
 pub const FIGURE_KIND: Kind = Kind {
     name: "psd-figure",
+    source: file!(),
     version: 3,
     about: "fig4-01b: cumulative % finer of sampled grains vs the target grading",
     params: typed::<PsdFigureParams>,

@@ -593,6 +593,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `snapshot`.
 pub const KIND: Kind = Kind {
     name: "snapshot",
+    source: file!(),
     version: 2,
     about: "particle / material-point snapshots declared in YAML: panels of upstream snapshot rows, one shared colour range",
     params: typed::<SnapParams>,

@@ -419,6 +419,7 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `material-table`.
 pub const KIND: Kind = Kind {
     name: "material-table",
+    source: file!(),
     version: 3,
     about: "tables 4.1–4.3 rendered from the material files the scenes use, with derived checks",
     params: typed::<TableParams>,

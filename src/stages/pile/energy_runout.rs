@@ -187,6 +187,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `energy-runout`.
 pub const KIND: Kind = Kind {
     name: "energy-runout",
+    source: file!(),
     version: 1,
     about: "fig 4.45: column (peak E_k at τ_c, D22) and pile (E_0, D21) run-out against the kinetic energy per grain, with the §4.4.6 comparisons",
     params: typed::<Params>,

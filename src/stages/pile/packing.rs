@@ -180,6 +180,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `pile-packing`.
 pub const KIND: Kind = Kind {
     name: "pile-packing",
+    source: file!(),
     version: 1,
     about: "fig 4.36: packing fraction of the main mass of a DEM pile against time after the excitation, at one E_0",
     params: typed::<PackingParams>,

@@ -504,6 +504,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// Kind `wp-summary`.
 pub const KIND: Kind = Kind {
     name: "wp-summary",
+    source: file!(),
     version: 5,
     about: "work-precision atlas: every work-precision stage's error vs wall time in one table and figure, observed orders, the profile's error and cost",
     params: typed::<SummaryParams>,

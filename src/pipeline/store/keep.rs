@@ -1,0 +1,241 @@
+//! `granrepro keep`: write `results/<profile>/` from the cache (see the parent module doc).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::{Caps, LOCK, Lock, Locked, PARTIAL, STORE, dir_of, hash_bytes, read_lock, verify};
+use crate::pipeline::fsio;
+use crate::pipeline::keys::key_records;
+use crate::pipeline::project::Project;
+use crate::pipeline::publish;
+use crate::pipeline::spec::Pipeline;
+use crate::provenance::sources;
+
+/// What [`keep`] did.
+#[derive(Debug, Default)]
+pub struct Kept {
+    /// Stages kept from this cache (new or refreshed).
+    pub kept: Vec<String>,
+    /// Stages whose previously committed files were carried over (no complete entry here).
+    pub carried: Vec<String>,
+    /// Stages with nothing to keep.
+    pub missing: Vec<String>,
+    /// Files left out: (stage, name, bytes).
+    pub left_out: Vec<(String, String, u64)>,
+    /// Bytes written under `results/<profile>/`.
+    pub bytes: u64,
+}
+
+/// Write `results/<profile>/` for every stage with a complete cache entry under its current
+/// key; other stages keep their committed files. Built beside the old directory and swapped
+/// in by renames, so a reader never sees half of it.
+pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
+    let dir = dir_of(&p.root, &p.profile);
+    let old = read_lock(&dir)?.unwrap_or_default();
+    let bad = verify(&dir, &old);
+    anyhow::ensure!(
+        bad.is_empty(),
+        "the committed results do not match their lock:\n  {}\n  help: restore {} from version control (`git checkout -- {}`) before keeping new results",
+        bad.join("\n  "),
+        dir.display(),
+        dir.display()
+    );
+    let keys = key_records(p);
+    let kinds = crate::stages::registry::registry();
+    let parent = dir.parent().expect("results/<profile> has a parent");
+    fsio::create_dir_all(parent)?;
+    let staging = tempfile::Builder::new()
+        .prefix(&format!(".tmp-{}-", p.profile))
+        .tempdir_in(parent)
+        .map_err(fsio::err_at("cannot create a temp directory in", parent))?;
+    let st = staging.path();
+    let publish_dir =
+        tempfile::tempdir_in(parent).map_err(fsio::err_at("cannot create a temp directory in", parent))?;
+    fsio::create_dir_all(&st.join(STORE))?;
+    let errors = atlas_errors(p, proj);
+    let measured = publish::Measured {
+        profile: &p.profile,
+        errors: &errors,
+        atlas: p.atlas().map(|a| a.0),
+    };
+    let mut lock = Lock {
+        profile: p.profile.clone(),
+        stages: BTreeMap::new(),
+    };
+    let mut out = Kept::default();
+    for s in &p.stages {
+        let (rec, key) = &keys[&s.id];
+        let entry = proj.cache.entry_dir(key);
+        let complete_here = proj.cache.verify(&entry, key).is_ok() && !entry.join(PARTIAL).exists();
+        if complete_here {
+            let mut l = Locked {
+                key: key.clone(),
+                record: rec.clone(),
+                store: BTreeMap::new(),
+                published: BTreeMap::new(),
+                left_out: BTreeMap::new(),
+                sources: kinds
+                    .get(s.kind.as_str())
+                    .and_then(|k| sources::closure(k.source))
+                    .unwrap_or_default(),
+                wall_s: None,
+            };
+            store_entry(&entry, &st.join(STORE).join(key), key, caps, &mut l, &mut out, &s.id)?;
+            l.wall_s = std::fs::read(entry.join("record.json"))
+                .ok()
+                .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+                .and_then(|v| v.get("wall_s").and_then(Value::as_f64));
+            publish::publish(
+                &proj.cache,
+                publish_dir.path(),
+                &s.id,
+                key,
+                &s.overrides,
+                Some(&measured),
+            )?;
+            let set = publish_dir.path().join(".sets").join(&s.id);
+            for f in sorted_files(&set)? {
+                let bytes = fsio::read(&set.join(&f))?;
+                let n = bytes.len() as u64;
+                let csv_cap = if f.ends_with(".csv") { caps.csv } else { caps.file };
+                if f.ends_with(".parquet") {
+                    continue; // the store holds the tables
+                }
+                if n > csv_cap || bulky(&f) {
+                    l.left_out.insert(f.clone(), hash_bytes(&bytes));
+                    out.left_out.push((s.id.clone(), f, n));
+                    continue;
+                }
+                fsio::write_new(&st.join(&f), &bytes)?;
+                l.published.insert(f, hash_bytes(&bytes));
+                out.bytes += n;
+            }
+            lock.stages.insert(s.id.clone(), l);
+            out.kept.push(s.id.clone());
+        } else if let Some(l) = old.stages.get(&s.id) {
+            let (from, to) = (dir.join(STORE).join(&l.key), st.join(STORE).join(&l.key));
+            if !to.exists() {
+                fsio::create_dir_all(&to)?;
+                for n in l.store.keys() {
+                    copy(&from.join(n), &to.join(n), &mut out.bytes)?;
+                }
+            }
+            for n in l.published.keys() {
+                copy(&dir.join(n), &st.join(n), &mut out.bytes)?;
+            }
+            lock.stages.insert(s.id.clone(), l.clone());
+            out.carried.push(s.id.clone());
+        } else {
+            out.missing.push(s.id.clone());
+        }
+    }
+    drop(publish_dir);
+    // The ledger and the index, judged on what is kept.
+    let ids: Vec<String> = p.stages.iter().map(|s| s.id.clone()).collect();
+    let judged = crate::claims::evaluate_dir(p, st);
+    if let Some(j) = &judged {
+        crate::report::ledger::write_files(st, j)?;
+    }
+    crate::report::html::write_index_of(st, &p.profile, &ids, judged.as_deref(), None, p.atlas())?;
+    fsio::write_new(&st.join(LOCK), &serde_json::to_vec_pretty(&lock)?)?;
+    // Swap: old aside, new in place, old removed.
+    let staging = staging.keep();
+    let trash = parent.join(format!(
+        ".trash-{}-{}-{}",
+        p.profile,
+        std::process::id(),
+        fsio::unique()
+    ));
+    if dir.exists() {
+        std::fs::rename(&dir, &trash).map_err(fsio::err_at("cannot move aside", &dir))?;
+    }
+    if let Err(e) = std::fs::rename(&staging, &dir) {
+        let _ = std::fs::rename(&trash, &dir);
+        return Err(fsio::at("cannot move the new results to", &dir, e).into());
+    }
+    if trash.exists() {
+        std::fs::remove_dir_all(&trash).map_err(fsio::err_at("cannot remove", &trash))?;
+    }
+    Ok(out)
+}
+
+/// Copy a cache entry into the store by the size policy, with a manifest of what it kept.
+fn store_entry(
+    from: &Path,
+    to: &Path,
+    key: &str,
+    caps: Caps,
+    l: &mut Locked,
+    out: &mut super::Kept,
+    id: &str,
+) -> anyhow::Result<()> {
+    fsio::create_dir_all(to)?;
+    let manifest: Value = serde_json::from_slice(&fsio::read(&from.join("manifest.json"))?)?;
+    let files: BTreeMap<String, String> = serde_json::from_value(manifest["files"].clone())?;
+    let mut kept = serde_json::Map::new();
+    for (name, h) in &files {
+        let twin = name.strip_suffix(".csv").map(|b| format!("{b}.parquet"));
+        let size = std::fs::metadata(from.join(name)).map(|m| m.len()).unwrap_or(0);
+        if twin.is_some_and(|t| files.contains_key(&t)) || bulky(name) || size > caps.file {
+            l.left_out.insert(format!("{STORE}/{name}"), h.clone());
+            if size > caps.file {
+                out.left_out.push((id.to_string(), format!("{STORE}/{name}"), size));
+            }
+            continue;
+        }
+        copy(&from.join(name), &to.join(name), &mut out.bytes)?;
+        l.store.insert(name.clone(), h.clone());
+        kept.insert(name.clone(), Value::String(h.clone()));
+    }
+    if let Some(r) = manifest.get("record").and_then(Value::as_str) {
+        copy(&from.join("record.json"), &to.join("record.json"), &mut out.bytes)?;
+        l.store.insert("record.json".into(), r.to_string());
+    }
+    let mut m = manifest.clone();
+    m["files"] = Value::Object(kept);
+    m["key"] = Value::String(key.to_string());
+    let bytes = serde_json::to_vec_pretty(&m)?;
+    fsio::write_new(&to.join("manifest.json"), &bytes)?;
+    l.store.insert("manifest.json".into(), hash_bytes(&bytes));
+    out.bytes += bytes.len() as u64;
+    Ok(())
+}
+
+/// Per-particle snapshot tables and per-instant field files: left out whatever their size
+/// (regenerated by running the stage; the figures drawn from them are kept).
+fn bulky(name: &str) -> bool {
+    name.contains("snapshots.")
+        || name.ends_with("-snapshots.csv")
+        || [".vtp", ".vtu", ".vtk", ".pvd"].iter().any(|e| name.ends_with(e))
+}
+
+fn copy(from: &Path, to: &Path, bytes: &mut u64) -> anyhow::Result<()> {
+    let b = fsio::read(from)?;
+    *bytes += b.len() as u64;
+    fsio::write_new(to, &b)?;
+    Ok(())
+}
+
+fn sorted_files(dir: &Path) -> anyhow::Result<Vec<String>> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map_err(fsio::err_at("cannot read", dir))?
+        .flatten()
+        .filter(|e| e.path().is_file())
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
+/// The profile's measured errors for the figures' footers: the atlas stage's table.
+fn atlas_errors(p: &Pipeline, proj: &Project) -> crate::report::measured::ProfileErrors {
+    let keys = key_records(p);
+    p.atlas()
+        .and_then(|(id, table)| {
+            std::fs::read_to_string(proj.cache.entry_dir(&keys[id].1).join(format!("{table}.csv"))).ok()
+        })
+        .map(|t| crate::report::measured::parse_profile_csv(&t))
+        .unwrap_or_default()
+}

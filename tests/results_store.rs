@@ -1,0 +1,239 @@
+//! Contract of the committed results (`results/<profile>/`, `granrepro keep`): they serve a
+//! fresh cache as a read-only second cache, `status` says which are fresh, stale (which
+//! input), built from changed code (which files) or corrupt (which file), a partial entry is
+//! recomputed when a stage that must run reads it, and the repository's own committed
+//! results match their lock and re-run byte for byte.
+
+mod common;
+use common::{SMALL, TempProject};
+use granrepro::pipeline::store::{self, Caps, Committed};
+use granrepro::pipeline::{Override, Project, RunOptions, load, run::run};
+
+fn opts() -> RunOptions {
+    RunOptions {
+        jobs: 2,
+        quiet: true,
+        ..Default::default()
+    }
+}
+
+fn sorted(v: Vec<&str>) -> Vec<String> {
+    let mut v: Vec<String> = v.into_iter().map(String::from).collect();
+    v.sort();
+    v
+}
+
+/// SMALL run in the paper profile and kept under `results/paper/`.
+fn kept(caps: Caps) -> TempProject {
+    let t = TempProject::new(SMALL);
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    run(&p, &proj, &opts()).unwrap();
+    let k = store::keep(&p, &proj, caps).unwrap();
+    assert_eq!(k.kept.len(), 5, "{k:?}");
+    t
+}
+
+fn state(p: &granrepro::pipeline::Pipeline, t: &TempProject, id: &str) -> Committed {
+    let dir = store::dir_of(t.path(), "paper");
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    store::status(p, &dir, &lock)
+        .into_iter()
+        .find(|(i, _)| i == id)
+        .unwrap()
+        .1
+}
+
+#[test]
+fn kept_results_serve_an_empty_cache_and_a_changed_param_reruns_exactly_its_dependants() {
+    let t = kept(Caps::default());
+    let dir = store::dir_of(t.path(), "paper");
+    assert!(dir.join("index.html").is_file() && dir.join("fig-a.svg").is_file());
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    assert!(store::verify(&dir, &lock).is_empty());
+    // The CSV twin of a table is left out of the store (Parquet is what stages read).
+    let l = &lock.stages["psd-a"];
+    assert!(l.store.contains_key("table.parquet") && l.left_out.contains_key("store/table.csv"));
+    assert!(l.complete() && l.sources.contains_key("src/stages/generic/psd.rs"));
+
+    // Another machine: the same repository, an empty cache.
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    for id in ["psd-a", "psd-b", "fig-a", "tab", "laws"] {
+        assert_eq!(state(&p, &t, id), Committed::Fresh, "{id}");
+    }
+    let s = run(&p, &proj, &opts()).unwrap();
+    assert!(s.ran().is_empty(), "ran {:?}", s.ran());
+    assert_eq!(s.cached().len(), 5);
+    assert!(
+        t.path().join("reports/paper/fig-a.svg").exists(),
+        "the figure is published from the store"
+    );
+
+    // A changed parameter: exactly its dependants are stale, and only they run.
+    let sets = vec![Override::parse("psd-a.seed=3").unwrap()];
+    let p2 = load(&t.pipeline(), "paper", &sets).unwrap();
+    for id in ["psd-a", "fig-a", "tab"] {
+        assert!(matches!(state(&p2, &t, id), Committed::Stale(_)), "{id}");
+    }
+    match state(&p2, &t, "fig-a") {
+        Committed::Stale(r) => assert!(r.iter().any(|x| x.contains("input `psd-a` changed")), "{r:?}"),
+        other => panic!("{other:?}"),
+    }
+    for id in ["psd-b", "laws"] {
+        assert_eq!(state(&p2, &t, id), Committed::Fresh, "{id}");
+    }
+    let s2 = run(&p2, &proj, &opts()).unwrap();
+    assert_eq!(sorted(s2.ran()), ["fig-a", "psd-a", "tab"]);
+}
+
+#[test]
+fn a_hand_edited_result_is_detected_by_its_hash() {
+    let t = kept(Caps::default());
+    let f = store::dir_of(t.path(), "paper").join("psd-a.json");
+    let mut text = std::fs::read_to_string(&f).unwrap();
+    text = text.replacen('1', "2", 1);
+    std::fs::write(&f, text).unwrap();
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    match state(&p, &t, "psd-a") {
+        Committed::Corrupt(r) => assert!(r[0].contains("psd-a.json: content differs"), "{r:?}"),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(state(&p, &t, "psd-b"), Committed::Fresh);
+    let (code, out, err) = t.cli(&["status", "--profile", "paper"]);
+    assert_eq!(code, 1, "{out}\n{err}");
+    assert!(
+        out.contains("CORRUPT  psd-a") && err.contains("restore"),
+        "{out}\n{err}"
+    );
+    // and `keep` refuses to build on it
+    let (code, _, err) = t.cli(&["keep", "--profile", "paper"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("psd-a.json"), "{err}");
+}
+
+#[test]
+fn a_result_built_from_changed_code_names_the_files_and_marks_its_dependants() {
+    let t = kept(Caps::default());
+    let dir = store::dir_of(t.path(), "paper");
+    // As if psd.rs had changed since psd-a was kept: the lock holds an older hash.
+    let mut lock = store::read_lock(&dir).unwrap().unwrap();
+    lock.stages
+        .get_mut("psd-a")
+        .unwrap()
+        .sources
+        .insert("src/stages/generic/psd.rs".into(), "0".repeat(64));
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    let states = store::status(&p, &dir, &lock);
+    let get = |id: &str| states.iter().find(|(i, _)| i == id).unwrap().1.clone();
+    assert_eq!(
+        get("psd-a"),
+        Committed::ChangedCode(vec!["src/stages/generic/psd.rs".into()])
+    );
+    for id in ["fig-a", "tab"] {
+        match get(id) {
+            Committed::ChangedCode(r) => assert!(
+                r.contains(&"input `psd-a` built from changed code".to_string()),
+                "{r:?}"
+            ),
+            other => panic!("{id}: {other:?}"),
+        }
+    }
+    assert_eq!(get("psd-b"), Committed::Fresh);
+    assert_eq!(get("laws"), Committed::Fresh);
+}
+
+#[test]
+fn a_partial_entry_serves_its_figure_but_is_recomputed_when_a_consumer_must_run() {
+    // A cap that leaves psd-a's table out of the store.
+    let t = kept(Caps { file: 64, csv: 64 });
+    let lock = store::read_lock(&store::dir_of(t.path(), "paper")).unwrap().unwrap();
+    assert!(!lock.stages["psd-a"].complete());
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    // Nothing needs psd-a's table: nothing runs.
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    assert!(run(&p, &proj, &opts()).unwrap().ran().is_empty());
+    // fig-a's own setting changes: it must run, so psd-a's table is needed: psd-a runs too.
+    let sets = vec![Override::parse("fig-a.curve_points=50").unwrap()];
+    let p2 = load(&t.pipeline(), "paper", &sets).unwrap();
+    let s = run(&p2, &proj, &opts()).unwrap();
+    assert_eq!(sorted(s.ran()), ["fig-a", "psd-a"]);
+}
+
+/// CI: the repository's committed results match their lock (a hand-edited or corrupted
+/// file fails here), and every stage they hold is still in the pipeline.
+#[test]
+fn the_repositorys_committed_results_match_their_lock() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    for profile in ["paper", "quick"] {
+        let dir = store::dir_of(root, profile);
+        let Some(lock) = store::read_lock(&dir).unwrap() else {
+            continue;
+        };
+        let bad = store::verify(&dir, &lock);
+        assert!(bad.is_empty(), "{}:\n{}", dir.display(), bad.join("\n"));
+        let p = load(&root.join("pipeline.yaml"), profile, &[]).unwrap();
+        let gone: Vec<&String> = lock.stages.keys().filter(|id| p.get(id).is_none()).collect();
+        assert!(gone.is_empty(), "kept stages no longer in the pipeline: {gone:?}");
+    }
+}
+
+/// The cheapest committed paper stages re-run from an empty cache in a copy of the
+/// project give the committed store files byte for byte.
+#[test]
+fn committed_paper_stages_rerun_byte_for_byte() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = store::dir_of(root, "paper");
+    let lock = store::read_lock(&dir)
+        .unwrap()
+        .expect("results/paper/lock.json: the paper profile's committed results (issue 28)");
+    let t = TempProject::new(&std::fs::read_to_string(root.join("pipeline.yaml")).unwrap());
+    copy_tree(&root.join("stages"), &t.path().join("stages"));
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    let proj = Project::new(t.path());
+    let ids: Vec<String> = ["psd-col", "psd-pile", "laws"]
+        .into_iter()
+        .filter(|id| lock.stages.contains_key(*id))
+        .map(String::from)
+        .collect();
+    assert!(!ids.is_empty(), "no cheap stage among the committed results");
+    let s = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: ids.clone(),
+            ..opts()
+        },
+    )
+    .unwrap();
+    assert_eq!(sorted(s.ran()), sorted(ids.iter().map(String::as_str).collect()));
+    for id in &ids {
+        let l = &lock.stages[id];
+        let key = &s.stages.iter().find(|r| &r.id == id).unwrap().key;
+        assert_eq!(
+            key, &l.key,
+            "{id}: the committed result is stale (`granrepro status --profile paper`)"
+        );
+        for (name, h) in &l.store {
+            if name == "record.json" || name == "manifest.json" {
+                continue; // wall times
+            }
+            let got = blake3::hash(&std::fs::read(proj.cache.entry_dir(key).join(name)).unwrap());
+            assert_eq!(&got.to_hex().to_string(), h, "{id}/{name}");
+        }
+    }
+}
+
+fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let (a, b) = (e.path(), to.join(e.file_name()));
+        if a.is_dir() {
+            copy_tree(&a, &b);
+        } else {
+            std::fs::copy(&a, &b).unwrap();
+        }
+    }
+}
