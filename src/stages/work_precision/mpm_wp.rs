@@ -87,7 +87,7 @@ pub struct WorkPrecisionParams {
     /// The tall-column (a = 6) resolution check ([`super::mpm_tall`], issue 25): table
     /// `tall_resolution`. None: not run.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub tall: Option<super::mpm_tall::TallCheck>,
+    pub tall: Option<Box<super::mpm_tall::TallCheck>>,
     /// Run control.
     pub run: CollapseOptions,
     /// Take φ and E from the DEM calibration inputs when declared.
