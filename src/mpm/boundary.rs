@@ -36,11 +36,16 @@ impl WallWork {
 
 /// Apply every wall to one node at position `x` with mass `m`, velocity at the start of the
 /// step `v0` and unconstrained updated velocity `v` (modified in place). `tol` is the distance
-/// tolerance for "on the line" [m].
+/// tolerance for "on the line" [m]. A gate (a wall with the material on its minus side) does
+/// not act on nodes below `open_below` [m]: −∞ for a closed gate, its lower edge while it is
+/// lifted.
 #[inline]
-pub fn constrain(walls: &[Wall], x: Vec2, m: Real, v0: Vec2, v: &mut Vec2, tol: Real) -> WallWork {
+pub fn constrain(walls: &[Wall], x: Vec2, m: Real, v0: Vec2, v: &mut Vec2, tol: Real, open_below: Real) -> WallWork {
     let mut w = WallWork::default();
     for wall in walls {
+        if !wall.material_on_plus_side && x.y < open_below {
+            continue;
+        }
         let (coord, vn_idx) = match wall.axis {
             Axis::X => (x.x, 0usize),
             Axis::Y => (x.y, 1usize),
@@ -74,9 +79,9 @@ pub fn constrain(walls: &[Wall], x: Vec2, m: Real, v0: Vec2, v: &mut Vec2, tol: 
 
 /// Kinematic projection only (MUSL re-map): same constraint, no work booked.
 #[inline]
-pub fn project(walls: &[Wall], x: Vec2, v: &mut Vec2, tol: Real) {
+pub fn project(walls: &[Wall], x: Vec2, v: &mut Vec2, tol: Real, open_below: Real) {
     let v0 = *v;
-    let _ = constrain(walls, x, 1.0, v0, v, tol);
+    let _ = constrain(walls, x, 1.0, v0, v, tol, open_below);
 }
 
 /// The column walls: a left wall at x = 0 and a base at y = 0, both with friction `mu`,

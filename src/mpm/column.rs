@@ -177,6 +177,12 @@ pub struct CollapseOptions {
     pub snapshot_tau: Vec<Real>,
     /// Skip the geostatic stage (start stress free; for tests).
     pub skip_geostatic: bool,
+    /// Speed at which the gate is lifted, from the base up [m/s]; 0 (default): removed at
+    /// once (docs/definitions.md SC-COL). An option, not the chapter's described method
+    /// (issue 25, docs/mpm-start.md): while lifted, the gate holds the nodes at and right of
+    /// x = L_0 above its lower edge v_g t, and is removed when that edge passes the grid top.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gate_lift_speed: Real,
     /// The stated stop rule shared with the DEM (`crate::analysis::stop`). When set it
     /// replaces the rule above (`stop_ke_ratio` OR a still front, kept for the
     /// work-precision runs); its kinetic energy is the grid's.
@@ -219,6 +225,7 @@ impl Default for CollapseOptions {
             max_time_tau: 12.0,
             snapshot_tau: Vec::new(),
             skip_geostatic: false,
+            gate_lift_speed: 0.0,
             stop: None,
             front: ThickRule::default(),
             link_gap: None,
@@ -602,8 +609,14 @@ pub fn collapse_with_progress(
     } else {
         Some(geostatic::run(&mut col.solver, &mut col.state, col.spec.h0)?)
     };
-    release(&mut col);
+    if opts.gate_lift_speed <= 0.0 {
+        release(&mut col);
+    }
     run_collapse_with_progress(col, geo, params, opts, progress)
+}
+
+fn is_zero(v: &Real) -> bool {
+    *v == 0.0
 }
 
 /// Run an already-built (and possibly loaded) column after release.
@@ -680,12 +693,24 @@ pub fn run_collapse_with_progress(
     let sample_dt = opts.sample_every_tau * tau;
     let mut next_sample = sample_dt;
     let mut stopped = false;
+    let mut gate_lifting = opts.gate_lift_speed > 0.0;
     loop {
         while next_snap < snap_times.len() && col.state.t >= snap_times[next_snap] {
             snapshots.push(snapshot_with(&col.state, &params.material));
             next_snap += 1;
         }
         let dt = col.solver.dt(&col.state);
+        if gate_lifting {
+            // the gate's lower edge during this step; the gate is removed once it clears the grid
+            let edge = opts.gate_lift_speed * col.state.t;
+            if edge > col.solver.grid.origin.y + col.solver.grid.ny as Real * col.solver.grid.h {
+                release(&mut col);
+                col.solver.gate_open_below = Real::NEG_INFINITY;
+                gate_lifting = false;
+            } else {
+                col.solver.gate_open_below = edge;
+            }
+        }
         col.solver.step(&mut col.state, dt)?;
         if col.state.t >= next_sample {
             next_sample += sample_dt;

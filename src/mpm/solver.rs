@@ -109,6 +109,9 @@ pub struct Solver {
     pub flip: Real,
     /// Per-phase timers.
     pub times: PhaseTimes,
+    /// Height below which a gate (a wall with the material on its minus side) is open [m]:
+    /// −∞ (closed) unless the gate is being lifted (`column::CollapseOptions::gate_lift_speed`).
+    pub gate_open_below: Real,
     params: MpmParams,
     elastic: Elastic,
     surface: McSurface,
@@ -152,6 +155,7 @@ impl Solver {
             damping: 0.0,
             flip: params.flip,
             times: PhaseTimes::default(),
+            gate_open_below: Real::NEG_INFINITY,
             params: params.clone(),
             elastic: Elastic::new(m.young_pa, m.poisson),
             surface: material::surface_of(m),
@@ -389,6 +393,7 @@ impl Solver {
         let ny = self.grid.ny;
         let (origin, h) = (self.grid.origin, self.grid.h);
         let walls = &self.walls;
+        let open = self.gate_open_below;
         let alpha = self.damping;
         let mmin = self.mass_floor();
         self.grid
@@ -424,7 +429,7 @@ impl Solver {
                     let mut v = v0 + f * (dt / m);
                     if !walls.is_empty() {
                         let x = Vec2::new(origin.x + i as Real * h, origin.y + j as Real * h);
-                        ww.add(boundary::constrain(walls, x, m, v0, &mut v, 1e-6 * h));
+                        ww.add(boundary::constrain(walls, x, m, v0, &mut v, 1e-6 * h, open));
                     }
                     n.dv = v - v0;
                     n.v = v;
@@ -459,6 +464,7 @@ impl Solver {
         let ny = self.grid.ny;
         let (origin, h) = (self.grid.origin, self.grid.h);
         let walls = &self.walls;
+        let open = self.gate_open_below;
         let mmin = self.mass_floor();
         self.grid.nodes.par_chunks_mut(ny).enumerate().for_each(|(i, col)| {
             for (j, n) in col.iter_mut().enumerate() {
@@ -472,7 +478,7 @@ impl Solver {
                 let mut v = p / m;
                 if !walls.is_empty() {
                     let x = Vec2::new(origin.x + i as Real * h, origin.y + j as Real * h);
-                    boundary::project(walls, x, &mut v, 1e-6 * h);
+                    boundary::project(walls, x, &mut v, 1e-6 * h, open);
                 }
                 n.v = v;
             }

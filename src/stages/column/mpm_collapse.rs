@@ -71,6 +71,7 @@ impl Validate for CollapseParams {
             "in (1e-6, 10) m²",
         );
         c.positive("run.sample_every_tau", self.run.sample_every_tau);
+        c.non_negative("run.gate_lift_speed", self.run.gate_lift_speed);
         c.check(
             self.run.max_time_tau > self.run.min_time_tau,
             "run.max_time_tau",

@@ -5,6 +5,7 @@
 
 pub mod cd_wp;
 pub mod dem_wp;
+pub mod mpm_tall;
 pub mod mpm_wp;
 pub mod study;
 pub mod wp_summary;

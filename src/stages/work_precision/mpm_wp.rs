@@ -84,6 +84,10 @@ pub struct WorkPrecisionParams {
     /// Perturbed starts per setting.
     #[serde(skip_serializing_if = "is_single")]
     pub ensemble: WpEnsemble,
+    /// The tall-column (a = 6) resolution check ([`super::mpm_tall`], issue 25): table
+    /// `tall_resolution`. None: not run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tall: Option<Box<super::mpm_tall::TallCheck>>,
     /// Run control.
     pub run: CollapseOptions,
     /// Take φ and E from the DEM calibration inputs when declared.
@@ -106,6 +110,7 @@ impl Default for WorkPrecisionParams {
             reference: (25, 2e-3, 0.1),
             alternatives: vec![],
             ensemble: WpEnsemble::default(),
+            tall: None,
             run: CollapseOptions::default(),
             use_dem_calibration: true,
         }
@@ -155,6 +160,9 @@ impl Validate for WorkPrecisionParams {
             "an integer in [1, 16]",
         );
         c.in_closed("ensemble.perturbation", self.ensemble.perturbation, 0.0, 0.1);
+        if let Some(t) = &self.tall {
+            t.check(&mut c);
+        }
         c.issues
     }
 }
@@ -403,6 +411,9 @@ pub(super) fn run(ctx: &StageCtx, mut p: WorkPrecisionParams) -> anyhow::Result<
             ("wall_s", rows.iter().map(|r| r.1.wall_s).collect()),
         ])?,
     );
+    if let Some(t) = &p.tall {
+        tall_outputs(&mut out, &super::mpm_tall::run(&p.mpm, &p.run, p.area_m2, t)?, t)?;
+    }
     out.scalar("reference_runout_norm", ref_dl)
         .scalar("reference_runout_q99_norm", reference.q99_mean)
         .scalar("reference_points", reference.runs[0].points as f64)
@@ -510,6 +521,54 @@ pub(super) fn run(ctx: &StageCtx, mut p: WorkPrecisionParams) -> anyhow::Result<
     Ok(out)
 }
 
+/// Tables `tall_resolution` (results, bit-identical at any thread count) and `tall_timing`
+/// (wall times), and the scalars `tall_*`: the base setting's E_p/E_0 at 1 τ_c and
+/// t_KEmax/τ_c, and the largest shift of either over the other settings.
+fn tall_outputs(
+    out: &mut Output,
+    rows: &[super::mpm_tall::TallRow],
+    t: &super::mpm_tall::TallCheck,
+) -> anyhow::Result<()> {
+    let col = |f: &dyn Fn(&super::mpm_tall::TallRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
+    out.table(
+        "tall_resolution",
+        frame(vec![
+            ("a", col(&|_| t.a)),
+            ("cells_across", col(&|r| r.cells as f64)),
+            ("cell_size_m", col(&|r| r.cell_size)),
+            ("ppc", col(&|r| r.ppc as f64)),
+            ("points", col(&|r| r.points as f64)),
+            ("steps", col(&|r| r.steps as f64)),
+            ("ep_over_e0_0_5tau", col(&|r| r.ep[0])),
+            ("ep_over_e0_1tau", col(&|r| r.ep[1])),
+            ("ep_over_e0_2tau", col(&|r| r.ep[2])),
+            ("t_kemax_over_tau_c", col(&|r| r.t_kemax)),
+            ("runout_norm_end", col(&|r| r.runout_end)),
+        ])?,
+    );
+    out.table(
+        "tall_timing",
+        frame(vec![
+            ("cells_across", col(&|r| r.cells as f64)),
+            ("ppc", col(&|r| r.ppc as f64)),
+            ("wall_s", col(&|r| r.wall_s)),
+        ])?,
+    );
+    if let Some(b) = rows.first() {
+        let shift =
+            |f: &dyn Fn(&super::mpm_tall::TallRow) -> f64| rows.iter().map(|r| (f(r) - f(b)).abs()).fold(0.0, f64::max);
+        out.scalar("tall_ep_1tau_base", b.ep[1])
+            .scalar("tall_ep_1tau_max_shift", shift(&|r| r.ep[1]))
+            .scalar("tall_t_kemax_base", b.t_kemax)
+            .scalar("tall_t_kemax_max_shift", shift(&|r| r.t_kemax));
+        out.note(format!(
+            "Tall-column check (a = {}, one knob at a time from {} cells across L_0 and {} PPC, Courant {}, to {} τ_c): E_p/E_0 at 1 τ_c = {:.3} (largest shift {:.3}), t_KEmax/τ_c = {:.3} (largest shift {:.3}); table tall_resolution.",
+            t.a, b.cells, b.ppc, t.courant, t.until_tau, b.ep[1], shift(&|r| r.ep[1]), b.t_kemax, shift(&|r| r.t_kemax)
+        ));
+    }
+    Ok(())
+}
+
 /// Cost (work-precision): points × steps summed over the sweep and its reference.
 pub(super) fn cost(p: &WorkPrecisionParams, _: &CostCtx) -> Option<Work> {
     let mut total = 0.0;
@@ -522,5 +581,13 @@ pub(super) fn cost(p: &WorkPrecisionParams, _: &CostCtx) -> Option<Work> {
     }
     let (n, h, k) = p.reference;
     total += points(p.area_m2, n as f64, h) * cfl(&p.mpm, k, h);
+    if let Some(t) = &p.tall {
+        // cfl() counts the steps of a whole run (to rest); the check stops at until_tau
+        let l0 = ColumnSpec::from_area(t.a, p.area_m2).l0;
+        for (cells, ppc) in t.settings() {
+            let h = l0 / cells as f64;
+            total += points(p.area_m2, ppc as f64, h) * cfl(&p.mpm, t.courant, h);
+        }
+    }
     Some((vec![("points×steps of the sweep", total)], false))
 }

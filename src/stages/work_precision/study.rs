@@ -112,7 +112,7 @@ pub const KIND: Kind = Kind {
             "ep_final_error_se_*", "error_*", "error_se_*", "grains", "members", "reference_com_shift_norm",
             "reference_dissipated_j_m", "reference_points", "reference_runout_mean", "reference_runout_norm",
             "reference_runout_q99_norm", "reference_runout_std", "reference_steps", "runout_mean_*", "runout_std_*",
-            "shift_vs_base_*",
+            "shift_vs_base_*", "tall_*",
         ],
         tables: &[
             TableDecl {
@@ -132,6 +132,17 @@ pub const KIND: Kind = Kind {
             TableDecl {
                 name: "timing",
                 columns: &["cell_size_m", "courant", "ppc", "settle_wall_s", "variant", "wall_s"],
+            },
+            TableDecl {
+                name: "tall_resolution",
+                columns: &[
+                    "a", "cell_size_m", "cells_across", "ep_over_e0_0_5tau", "ep_over_e0_1tau", "ep_over_e0_2tau",
+                    "points", "ppc", "runout_norm_end", "steps", "t_kemax_over_tau_c",
+                ],
+            },
+            TableDecl {
+                name: "tall_timing",
+                columns: &["cells_across", "ppc", "wall_s"],
             },
         ],
         measurements: &[],
