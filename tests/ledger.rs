@@ -338,3 +338,29 @@ fn a_bad_ledger_is_refused_before_anything_runs_naming_the_file_and_key() {
         .to_string();
     assert!(msg.contains("ledger.yaml") && msg.contains("kind"), "{msg}");
 }
+
+/// `--stage headline` names exactly the stages the ledger's headline rows read (present in
+/// the profile), so the headline subset follows the ledger, never a hand-kept list.
+#[test]
+fn the_headline_target_is_the_stages_the_headline_rows_read() {
+    use granrepro::pipeline::dag::{HEADLINE, closure, members};
+    let l = ledger();
+    for profile in ["quick", "paper"] {
+        let p = pipeline(profile);
+        let got: BTreeSet<String> = members(&p, HEADLINE).into_iter().collect();
+        let want: BTreeSet<String> = l
+            .claims
+            .iter()
+            .filter(|r| r.headline.is_some())
+            .flat_map(|r| r.measure.all_stages())
+            .filter(|id| p.get(id).is_some())
+            .map(String::from)
+            .collect();
+        assert!(!want.is_empty());
+        assert_eq!(got, want, "{profile}");
+        assert!(got.contains("fig4-03"), "col-phi-cs is a headline row read from fig4-03");
+        // the closure runs what they need, and not the whole pipeline
+        let c = closure(&p, &[HEADLINE.to_string()]).unwrap();
+        assert!(c.len() < p.stages.len() && c.iter().any(|id| id == "calib-dem"), "{profile}");
+    }
+}

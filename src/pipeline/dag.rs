@@ -5,6 +5,33 @@ use std::collections::BTreeSet;
 
 use super::spec::Pipeline;
 
+/// The target that names the chapter's headline results: the stages the claims ledger's
+/// headline rows read (`headline:` in `stages/ledger.yaml`, both sides of a comparison and
+/// every ensemble member present in the profile). A stage of that id takes precedence.
+pub const HEADLINE: &str = "headline";
+
+/// The stages a target names: a stage, the members of a matrix base id, or [`HEADLINE`].
+pub fn members(p: &Pipeline, target: &str) -> Vec<String> {
+    let m = p.members(target);
+    if !m.is_empty() || target != HEADLINE {
+        return m.into_iter().map(str::to_string).collect();
+    }
+    let Ok(Some((ledger, ..))) = crate::claims::ledger::read(&p.root) else {
+        return vec![];
+    };
+    let read: BTreeSet<&str> = ledger
+        .claims
+        .iter()
+        .filter(|r| r.headline.is_some())
+        .flat_map(|r| r.measure.all_stages())
+        .collect();
+    p.stages
+        .iter()
+        .filter(|s| read.contains(s.id.as_str()))
+        .map(|s| s.id.clone())
+        .collect()
+}
+
 /// Ids (in topological order) of `targets` and everything they need. Empty targets =
 /// the whole pipeline. Unknown targets are returned as the error.
 pub fn closure(p: &Pipeline, targets: &[String]) -> Result<Vec<String>, Vec<String>> {
@@ -15,11 +42,11 @@ pub fn closure(p: &Pipeline, targets: &[String]) -> Result<Vec<String>, Vec<Stri
     let mut unknown = Vec::new();
     let mut stack: Vec<String> = Vec::new();
     for t in targets {
-        let m = p.members(t);
+        let m = members(p, t);
         if m.is_empty() {
             unknown.push(t.clone());
         }
-        stack.extend(m.into_iter().map(str::to_string));
+        stack.extend(m);
     }
     if !unknown.is_empty() {
         return Err(unknown);
