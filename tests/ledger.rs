@@ -358,9 +358,15 @@ fn the_headline_target_is_the_stages_the_headline_rows_read() {
             .collect();
         assert!(!want.is_empty());
         assert_eq!(got, want, "{profile}");
-        assert!(got.contains("fig4-03"), "col-phi-cs is a headline row read from fig4-03");
+        assert!(
+            got.contains("fig4-03"),
+            "col-phi-cs is a headline row read from fig4-03"
+        );
         // the closure runs what they need, and not the whole pipeline
         let c = closure(&p, &[HEADLINE.to_string()]).unwrap();
-        assert!(c.len() < p.stages.len() && c.iter().any(|id| id == "calib-dem"), "{profile}");
+        assert!(
+            c.len() < p.stages.len() && c.iter().any(|id| id == "calib-dem"),
+            "{profile}"
+        );
     }
 }

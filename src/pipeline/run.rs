@@ -489,7 +489,7 @@ fn publish_all(
         let paper = (p.profile != "paper" && committed.is_dir())
             .then(|| crate::pipeline::load(&p.path, "paper", &[]).ok())
             .flatten()
-            .and_then(|pp| crate::claims::evaluate_dir(&pp, &committed));
+            .and_then(|pp| super::store::fresh_judged(&pp, &committed));
         crate::report::html::write_index_of(&dir, &p.profile, &all, judged.as_deref(), paper.as_deref(), p.atlas())?;
     }
     Ok(())

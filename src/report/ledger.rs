@@ -147,8 +147,14 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
     h.push_str("<h2 id=\"headline\">The chapter's headline results</h2><p><small>One row per principal result of §4.2–4.4, judged once in the claims ledger (<code>stages/ledger.yaml</code>). A row with several parts (two aspect ratios, two methods) is reproduced only if every part is. <i>Reproduced</i>: the mean is within the tolerance and 2 s.e. &lt; tolerance; <i>not resolved</i>: the uncertainty is as large as the tolerance, or a chaotic output has one member (its spread unknown); <i>missed</i> otherwise. The tolerance is the chapter's ± where it states one, else 15 %; it is never widened by the spread. <b>calibrated</b>: rests on a tuned value.</small></p>");
     let _ = write!(
         h,
-        "<table class=\"ledger\"><tr><th>result</th><th>the chapter</th><th>chapter's value</th><th>ours ({p})</th><th>ours (paper)</th><th>verdict ({p})</th><th>if missed or not resolved: why</th></tr>",
-        p = esc(profile)
+        "<table class=\"ledger\"><tr><th>result</th><th>the chapter</th><th>chapter's value</th><th>ours ({p})</th>{paper_col}<th>verdict ({p})</th><th>if missed or not resolved: why</th></tr>",
+        p = esc(profile),
+        // the paper profile's own report has no second paper column
+        paper_col = if profile == "paper" {
+            ""
+        } else {
+            "<th>ours (paper, committed and fresh)</th>"
+        }
     );
     let paper_of = |id: &str| paper.and_then(|p| p.iter().find(|x| x.id == id));
     for hl in headlines(j) {
@@ -182,7 +188,7 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
             .collect();
         let _ = write!(
             h,
-            "<tr><td><a href=\"#claim-{first}\"><b>{id}</b></a><br><small>§{sec} · {method}</small></td><td><small>{chapter}</small></td><td>{paper}</td><td>{ours}</td><td>{ours_paper}</td><td>{verdict}</td><td><small>{why}</small></td></tr>",
+            "<tr><td><a href=\"#claim-{first}\"><b>{id}</b></a><br><small>§{sec} · {method}</small></td><td><small>{chapter}</small></td><td>{paper}</td><td>{ours}</td>{ours_paper}<td>{verdict}</td><td><small>{why}</small></td></tr>",
             first = esc(&parts[0].id),
             id = esc(&hl.id),
             sec = esc(&parts[0].row.section),
@@ -190,16 +196,19 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
             chapter = esc(&parts[0].row.chapter),
             paper = cell(&|p| format!("{}{}", label(p), paper_cell(p))),
             ours = cell(&|p| format!("{}{}", label(p), ours_cell(p))),
-            ours_paper = if parts
+            ours_paper = if profile == "paper" {
+                String::new()
+            } else if parts
                 .iter()
                 .any(|p| paper_of(&p.id).is_some_and(|q| !q.values.is_empty()))
             {
-                cell(&|p| match paper_of(&p.id) {
+                let c = cell(&|p| match paper_of(&p.id) {
                     Some(q) if !q.values.is_empty() => format!("{}{} ({})", label(p), ours_cell(q), q.verdict.name()),
                     _ => format!("{}not run yet", label(p)),
-                })
+                });
+                format!("<td>{c}</td>")
             } else {
-                "not run yet".to_string()
+                "<td>not run yet</td>".to_string()
             },
             verdict = format!("<span class=\"{}\">{}</span>", class(hl.verdict), hl.verdict.name()),
             why = why.join("<br>"),

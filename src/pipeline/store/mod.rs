@@ -212,6 +212,27 @@ pub fn status(p: &Pipeline, dir: &Path, lock: &Lock) -> Vec<(String, Committed)>
     out
 }
 
+/// The claims ledger judged on the committed results, each row only from stages that are
+/// fresh (same key, same code, files intact): a stale or corrupt result is never shown as
+/// current, its rows read as not run.
+pub fn fresh_judged(p: &Pipeline, dir: &Path) -> Option<Vec<crate::claims::judge::Judged>> {
+    let lock = read_lock(dir).ok()??;
+    let not_fresh: HashSet<String> = status(p, dir, &lock)
+        .into_iter()
+        .filter(|(_, s)| *s != Committed::Fresh)
+        .map(|(id, _)| id)
+        .collect();
+    let mut j = crate::claims::evaluate_dir(p, dir)?;
+    for r in &mut j {
+        if r.row.measure.all_stages().iter().any(|s| not_fresh.contains(*s)) {
+            r.values.clear();
+            r.verdict = crate::claims::judge::Verdict::NotRun;
+            r.note = "the committed result is stale (`granrepro status --profile paper`)".into();
+        }
+    }
+    Some(j)
+}
+
 /// Before a run: serve what the committed store holds (see the module doc). Returns the ids
 /// imported from it.
 pub fn prepare(
