@@ -13,7 +13,7 @@
 //! Only files listed in the cache entry's manifest are published; files granrepro did
 //! not make are never touched.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io;
 use std::path::{Path, PathBuf};
 
@@ -90,10 +90,55 @@ fn mark_svg(bytes: Vec<u8>, overrides: &[String]) -> Vec<u8> {
 pub struct Measured<'a> {
     /// Profile name.
     pub profile: &'a str,
+    /// Methods each stage's numbers come from ([`stage_methods`]).
+    pub methods: &'a HashMap<String, Vec<&'static str>>,
     /// Method → its measured error at the profile's setting.
     pub errors: &'a crate::report::measured::ProfileErrors,
     /// The atlas stage the errors come from: its own numbers are no method's simulation.
     pub atlas: Option<&'a str>,
+}
+
+/// The methods each stage's numbers come from, read off the graph: the method its params
+/// name (`method:`), else its kind's declared method, else those of the stages feeding its
+/// `wp` role (the work-precision study it is stamped with), else the union over its inputs,
+/// nearest solver stages first, in input order.
+pub fn stage_methods(p: &crate::pipeline::Pipeline) -> HashMap<String, Vec<&'static str>> {
+    let mut out: HashMap<String, Vec<&'static str>> = HashMap::new();
+    for s in &p.stages {
+        // stages are in topological order: every input is already resolved
+        let own = s
+            .params
+            .get("method")
+            .and_then(Value::as_str)
+            .and_then(crate::engines::Method::parse)
+            .or_else(|| p.kinds.get(s.kind.as_str()).and_then(|k| k.method));
+        let ms: Vec<&'static str> = if let Some(m) = own {
+            vec![m.key()]
+        } else {
+            let wp: Vec<&String> = s
+                .inputs
+                .iter()
+                .filter(|(r, _)| r == "wp")
+                .flat_map(|(_, v)| v)
+                .collect();
+            let from: Vec<&String> = if wp.is_empty() {
+                s.inputs.iter().flat_map(|(_, v)| v).collect()
+            } else {
+                wp
+            };
+            let mut v: Vec<&'static str> = Vec::new();
+            for id in from {
+                for m in out.get(id).into_iter().flatten() {
+                    if !v.contains(m) {
+                        v.push(m);
+                    }
+                }
+            }
+            v
+        };
+        out.insert(s.id.clone(), ms);
+    }
+    out
 }
 
 /// Publish the cache entry `key` as stage `id`'s set in `dir` (= `reports/<profile>`).
@@ -109,16 +154,12 @@ pub fn publish(
     let files = cache
         .entry_files(key)
         .map_err(|why| fsio::at("cannot publish the cache entry", &entry, io::Error::other(why)))?;
-    // the stage's methods, from its run record
+    // the stage's methods, from the pipeline's graph
     let stamp_of = measured.map(|m| {
-        let rec: Value = fsio::read(&entry.join("record.json"))
-            .ok()
-            .and_then(|b| serde_json::from_slice(&b).ok())
-            .unwrap_or(Value::Null);
         let ms = if m.atlas == Some(id) {
             vec![]
         } else {
-            crate::report::measured::methods(&rec)
+            m.methods.get(id).cloned().unwrap_or_default()
         };
         (
             crate::report::measured::footer_line(m.profile, &ms, m.errors),
@@ -374,4 +415,41 @@ pub fn clean_reports(dir: &Path) -> io::Result<Vec<PathBuf>> {
         removed.push(dir.to_path_buf());
     }
     Ok(removed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stage_methods;
+
+    /// Methods come from the graph: the kind's or params' method, else the `wp` input's,
+    /// else the inputs' (through stages that only read). The name heuristic this replaces
+    /// gave table 4.1 no method (its inputs `psd-col` and `fig4-03` name none).
+    #[test]
+    fn methods_are_read_off_the_graph() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let p = crate::pipeline::load(&root.join("pipeline.yaml"), "quick", &[]).unwrap();
+        let m = stage_methods(&p);
+        let of = |id: &str| m.get(id).cloned().unwrap_or_else(|| panic!("{id}"));
+        assert_eq!(of("fig4-03"), ["dem"]);
+        assert_eq!(of("col-mpm-a0.4"), ["mpm"]);
+        assert_eq!(of("col-dem-a0.4"), ["dem"]);
+        assert_eq!(of("shear-cd"), ["cd"]);
+        assert!(of("psd-col").is_empty() && of("laws").is_empty());
+        assert_eq!(of("tab4-01"), ["dem"]);
+        // a figure of DEM and MPM runs stamped with the DEM work-precision study
+        assert_eq!(of("fig4-13"), ["dem"]);
+        // a plot of MPM runs only
+        let mpm_only = p
+            .stages
+            .iter()
+            .find(|s| {
+                s.kind == "plot"
+                    && !s.inputs.is_empty()
+                    && s.inputs.iter().all(|(_, v)| v.iter().all(|i| i.starts_with("col-mpm")))
+            })
+            .map(|s| s.id.clone());
+        if let Some(id) = mpm_only {
+            assert_eq!(of(&id), ["mpm"], "{id}");
+        }
+    }
 }

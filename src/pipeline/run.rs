@@ -442,7 +442,9 @@ fn publish_all(
         })
         .map(|t| crate::report::measured::parse_profile_csv(&t))
         .unwrap_or_default();
+    let methods = publish::stage_methods(p);
     let measured = publish::Measured {
+        methods: &methods,
         profile: &p.profile,
         errors: &errors,
         atlas: atlas.map(|a| a.0),

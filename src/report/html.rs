@@ -79,7 +79,7 @@ const SECTIONS: [&str; 4] = [
     "Numerics: work-precision",
 ];
 
-use super::measured::{methods, pct};
+use super::measured::pct;
 
 /// The profile's measured error and cost per method, from the atlas stage's published
 /// table (`atlas` = (stage id, table name)): method → (setting, error, standard error, wall
@@ -192,10 +192,14 @@ pub fn write_index_of(
         }
         let caption = rec.get("caption").and_then(|c| c.as_str()).unwrap_or("");
         let has_svg = dir.join(format!("{id}.svg")).exists();
-        let ms = if atlas.map(|a| a.0) == Some(id.as_str()) {
+        // the methods publishing stamped on this stage (read off the graph there)
+        let ms: Vec<&str> = if atlas.map(|a| a.0) == Some(id.as_str()) {
             vec![]
         } else {
-            methods(&rec)
+            res.pointer("/measured/methods")
+                .and_then(|m| m.as_array())
+                .map(|a| a.iter().filter_map(|x| x["method"].as_str()).collect())
+                .unwrap_or_default()
         };
         let err_note: Vec<String> = ms
             .iter()

@@ -64,57 +64,6 @@ pub fn parse_profile_csv(text: &str) -> ProfileErrors {
     out
 }
 
-/// Methods a stage's numbers come from (for its measured error), from its run record: the
-/// method its params name, else the kind's engine, else the engines of its inputs (the `wp`
-/// input first).
-pub fn methods(rec: &Value) -> Vec<&'static str> {
-    let engine = |s: &str| -> Option<&'static str> {
-        if s.starts_with("dem") || s.contains("-dem") || s.starts_with("calib") {
-            Some("dem")
-        } else if s.contains("mpm") {
-            Some("mpm")
-        } else if s.starts_with("cd") || s.contains("-cd") {
-            Some("cd")
-        } else {
-            None
-        }
-    };
-    let kind = rec.get("kind").and_then(|v| v.as_str()).unwrap_or("");
-    // A study kind names its method (`method: dem`).
-    if let Some(m) = rec.pointer("/params/method").and_then(|v| v.as_str()).and_then(engine) {
-        return vec![m];
-    }
-    if let Some(m) = engine(kind) {
-        return vec![m];
-    }
-    let inputs: Vec<(String, String)> = rec
-        .get("inputs")
-        .and_then(|v| v.as_array())
-        .map(|a| {
-            a.iter()
-                .map(|i| {
-                    (
-                        i["role"].as_str().unwrap_or("").to_string(),
-                        i["id"].as_str().unwrap_or("").to_string(),
-                    )
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    if let Some((_, id)) = inputs.iter().find(|(r, _)| r == "wp") {
-        return engine(id).into_iter().collect();
-    }
-    let mut out: Vec<&'static str> = Vec::new();
-    for (_, id) in &inputs {
-        if let Some(m) = engine(id)
-            && !out.contains(&m)
-        {
-            out.push(m);
-        }
-    }
-    out
-}
-
 /// "7.3 ± 9.4 %" (or "5.2 %" without a spread).
 pub fn pct(e: f64, se: f64) -> String {
     if !e.is_finite() {
@@ -272,17 +221,12 @@ mod tests {
     }
 
     #[test]
-    fn profile_table_and_methods_give_the_line() {
+    fn profile_table_gives_the_line() {
         let errs = parse_profile_csv(
             "method,setting,quantity,rel_error,rel_error_se,wall_s\ndem,k0.01-dt0.05,runout,0.073,0.094,10.8\nmpm,ppc4-h2mm-C0.5,runout,0.052,,1.7\n",
         );
         assert_eq!(errs["dem"].setting, "k0.01-dt0.05");
         assert!(errs["mpm"].error_se.is_nan());
-        let rec = json!({ "kind": "plot", "inputs": [{ "role": "dem", "id": "col-dem" }, { "role": "wp", "id": "wp-mpm-column" }] });
-        assert_eq!(methods(&rec), vec!["mpm"]);
-        assert_eq!(methods(&json!({ "kind": "dem-shear", "inputs": [] })), vec!["dem"]);
-        let mpm_column = json!({ "kind": "column-collapse", "params": { "method": "mpm" }, "inputs": [] });
-        assert_eq!(methods(&mpm_column), vec!["mpm"]);
         let l = footer_line("quick", &["dem"], &errs);
         assert_eq!(
             l,

@@ -216,6 +216,11 @@ pub struct Kind {
     /// The file that declares it (`file!()`): where its source closure starts, for the
     /// results lock (`crate::provenance::sources::closure`).
     pub source: &'static str,
+    /// The one method whose solver this kind runs (its numbers carry that method's measured
+    /// error). None: a study kind that names its method in `method:`, or a kind that only
+    /// reads results (its method is that of the solver stages upstream, see
+    /// `crate::pipeline::publish::stage_methods`).
+    pub method: Option<Method>,
     /// Version of the kind's numerics (part of the cache key).
     pub version: u32,
     /// One-line description (shown by `granrepro list --kinds`).

@@ -55,7 +55,9 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
         tempfile::tempdir_in(parent).map_err(fsio::err_at("cannot create a temp directory in", parent))?;
     fsio::create_dir_all(&st.join(STORE))?;
     let errors = atlas_errors(p, proj);
+    let methods = publish::stage_methods(p);
     let measured = publish::Measured {
+        methods: &methods,
         profile: &p.profile,
         errors: &errors,
         atlas: p.atlas().map(|a| a.0),

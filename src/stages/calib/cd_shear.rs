@@ -173,6 +173,7 @@ fn run_shear(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const SHEAR_KIND: Kind = Kind {
     name: "cd-shear",
     source: file!(),
+    method: Some(crate::engines::Method::Cd),
     version: 1,
     about: "C3: periodic CD shear at several inertial numbers -> mu*(I), fit mu_min + b I",
     params: typed::<ShearStageParams>,

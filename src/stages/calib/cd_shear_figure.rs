@@ -130,6 +130,7 @@ fn run_shear_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const SHEAR_FIGURE_KIND: Kind = Kind {
     name: "cd-shear-figure",
     source: file!(),
+    method: Some(crate::engines::Method::Cd),
     version: 1,
     about: "fig4-25b: macroscopic friction mu* against inertial number (log x) with the fit and the 0.22 claim",
     params: typed::<ShearFigureParams>,

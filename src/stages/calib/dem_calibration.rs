@@ -251,6 +251,7 @@ fn run_point(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const POINT_KIND: Kind = Kind {
     name: "dem-calibration-point",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 1,
     about: "one point of the joint DEM calibration: shear-test φ_cs and ensemble column run-outs at given μ_r and rolling model",
     params: typed::<PointParams>,

@@ -495,6 +495,7 @@ fn runout_chart(ctx: &StageCtx, p: &CalibParams, pts: &[Point], a_list: &[f64], 
 pub const CALIB_KIND: Kind = Kind {
     name: "dem-calibration",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 2,
     about: "DEM calibration: gathers dem-calibration-point stages and chooses μ_r and the rolling model by a stated rule (joint if a point meets φ_cs and eq 4.6, else the stage's calib_target: flows or friction-angle)",
     params: typed::<CalibParams>,

@@ -129,6 +129,7 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const COMPRESS_KIND: Kind = Kind {
     name: "dem-compress",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 2,
     about: "laterally confined uniaxial compression of a DEM column -> constrained and Young's modulus",
     params: typed::<CompressStageParams>,

@@ -168,6 +168,7 @@ fn run_shear(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const SHEAR_KIND: Kind = Kind {
     name: "dem-shear",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 2,
     about: "fig4-03: bi-periodic DEM shear test at several pressures -> critical-state friction angle",
     params: typed::<ShearStageParams>,

@@ -190,6 +190,7 @@ fn charts(ctx: &StageCtx, tr: &ColumnTrace, out: &mut Output) -> anyhow::Result<
 pub const KIND: Kind = Kind {
     name: "column-collapse",
     source: file!(),
+    method: None,
     version: 1,
     about: "Granular column collapse by DEM or MPM (`method:`): L(t), H(t), energies, until at rest",
     params,

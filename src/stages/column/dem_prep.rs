@@ -169,6 +169,7 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const PREP_KIND: Kind = Kind {
     name: "dem-column-prep",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 4,
     about: "DEM column sample: ballistic deposition of the PSD (trimmed to L0 x H0) or hexagonal lattice",
     params: typed::<PrepParams>,

@@ -199,6 +199,7 @@ fn run_snapshot(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const SNAPSHOT_KIND: Kind = Kind {
     name: "dem-snapshot",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 2,
     about: "snapshot figure of a prepared DEM column (fig4-01a, fig4-02)",
     params: typed::<SnapshotParams>,

@@ -176,6 +176,7 @@ fn t_end_short(out: &Output, t: f64) -> bool {
 pub const PAIR_KIND: Kind = Kind {
     name: "column-density-pair",
     source: file!(),
+    method: None,
     version: 1,
     about: "dense/loose column pair (r = 6): relative densities from reference packings, run-out, peak E_k, compaction loss and deposit front shape against figs 4.19–4.21",
     params: typed::<PairParams>,

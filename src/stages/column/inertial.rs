@@ -127,6 +127,7 @@ fn run_inertial(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const INERTIAL_KIND: Kind = Kind {
     name: "column-inertial",
     source: file!(),
+    method: None,
     version: 1,
     about: "inertial number I(t) statistics of MPM μ(I), MPM Mohr–Coulomb and DEM columns (a = 0.4, 6) against fig 4.15's claims, with the definitions compared",
     params: typed::<InertialParams>,

@@ -210,6 +210,7 @@ fn run_geostatic(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const GEOSTATIC_KIND: Kind = Kind {
     name: "mpm-geostatic",
     source: file!(),
+    method: Some(crate::engines::Method::Mpm),
     version: 2,
     about: "fig4-04: MPM a = 1 column, material points in the mesh and geostatic vertical stress",
     params: typed::<GeostaticParams>,

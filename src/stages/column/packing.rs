@@ -89,6 +89,7 @@ fn run_packing(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const PACKING_KIND: Kind = Kind {
     name: "column-packing",
     source: file!(),
+    method: None,
     version: 1,
     about: "packing-fraction evolution of a loose/dense column pair against fig 4.17's three statements",
     params: typed::<PackingParams>,

@@ -196,6 +196,7 @@ fn run_scheme(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const SCHEME_KIND: Kind = Kind {
     name: "column-scheme",
     source: file!(),
+    method: None,
     version: 1,
     about: "energy-balance scheme of eqs 4.8–4.9 from a run's L_f, with its identities as checks and the run's measured deposit surface",
     params: typed::<SchemeParams>,

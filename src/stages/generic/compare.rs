@@ -225,6 +225,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "sweep-compare",
     source: file!(),
+    method: None,
     version: 1,
     about: "comparative claims between two families of runs (ratio of a scalar, paired on a)",
     params: typed::<CompareParams>,

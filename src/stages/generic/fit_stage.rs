@@ -316,6 +316,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "power-law-fit",
     source: file!(),
+    method: None,
     version: 1,
     about: "log-log least-squares power law (1 or 2 regimes) with standard errors, vs quoted exponents",
     params: typed::<FitParams>,

@@ -156,6 +156,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "reference-laws",
     source: file!(),
+    method: None,
     version: 1,
     about: "the chapter's stated scaling laws (eq 4.6, 4.7) and experimental ones, for overlays",
     params: typed::<LawParams>,

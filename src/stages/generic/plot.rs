@@ -585,6 +585,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "plot",
     source: file!(),
+    method: None,
     // 3: the shared renderer places legends off the data, tables fitted coefficients,
     // shares the figure width between panels and draws each method's marker (issue 26)
     version: 3,

@@ -106,6 +106,7 @@ fn run_psd(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "psd",
     source: file!(),
+    method: None,
     version: 1,
     about: "sample disk diameters from a cumulative-beta grading curve (thesis ch. 3)",
     params: typed::<PsdParams>,
@@ -280,6 +281,7 @@ fn run_psd_figure(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const FIGURE_KIND: Kind = Kind {
     name: "psd-figure",
     source: file!(),
+    method: None,
     version: 3,
     about: "fig4-01b: cumulative % finer of sampled grains vs the target grading",
     params: typed::<PsdFigureParams>,

@@ -594,6 +594,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "snapshot",
     source: file!(),
+    method: None,
     version: 2,
     about: "particle / material-point snapshots declared in YAML: panels of upstream snapshot rows, one shared colour range",
     params: typed::<SnapParams>,

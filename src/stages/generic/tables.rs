@@ -420,6 +420,7 @@ fn run_table(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "material-table",
     source: file!(),
+    method: None,
     version: 3,
     about: "tables 4.1–4.3 rendered from the material files the scenes use, with derived checks",
     params: typed::<TableParams>,

@@ -553,6 +553,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "pile-compare",
     source: file!(),
+    method: None,
     version: 4,
     about: "pile comparisons of §4.4: gradient vs uniform (fig4-44), CD restitution sweep, cavity uniform vs gradient (fig4-42), MPM vs DEM front (fig4-43)",
     params: typed::<CompareParams>,

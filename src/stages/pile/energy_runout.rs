@@ -188,6 +188,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "energy-runout",
     source: file!(),
+    method: None,
     version: 1,
     about: "fig 4.45: column (peak E_k at τ_c, D22) and pile (E_0, D21) run-out against the kinetic energy per grain, with the §4.4.6 comparisons",
     params: typed::<Params>,

@@ -181,6 +181,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "pile-packing",
     source: file!(),
+    method: None,
     version: 1,
     about: "fig 4.36: packing fraction of the main mass of a DEM pile against time after the excitation, at one E_0",
     params: typed::<PackingParams>,

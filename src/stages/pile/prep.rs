@@ -251,6 +251,7 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const PREP_KIND: Kind = Kind {
     name: "dem-pile-prep",
     source: file!(),
+    method: Some(crate::engines::Method::Dem),
     version: 4,
     about: "fig4-23: granular pile poured in a box whose right wall is then shifted; relaxed to rest",
     params: typed::<PrepParams>,

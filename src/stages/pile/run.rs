@@ -292,6 +292,7 @@ fn explain(v: &Value) -> String {
 pub const RUN_KIND: Kind = Kind {
     name: "pile-run",
     source: file!(),
+    method: None,
     version: 4,
     about: "pile under horizontal excitation (DEM, CD or MPM) over a list of input energies: run-out, duration, energies, decay (D01, D10–D16)",
     params,

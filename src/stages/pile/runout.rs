@@ -363,6 +363,7 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const RUNOUT_KIND: Kind = Kind {
     name: "pile-runout",
     source: file!(),
+    method: None,
     version: 3,
     about: "pile run-out, duration and speed against E_0 for every method: every exponent at the 40 mgd split and the fitted break (I9), ± s.e., the t_f and v_s claims",
     params: typed::<RunoutParams>,

@@ -677,6 +677,7 @@ fn friction_claims(out: &mut Output, p: &SeriesParams, runs: &[Run], der: &[Deri
 pub const KIND: Kind = Kind {
     name: "pile-series",
     source: file!(),
+    method: None,
     version: 1,
     about: "pile runs' time series, any method: t', t'/τ, E_kx/E'_kx0, E_k in mgd, high-passed E_ky; per-run t_1, τ, t'_f, dissipation time; the §4.4.2/4.4.4/4.4.5 statements a stage asks for",
     params: typed::<SeriesParams>,

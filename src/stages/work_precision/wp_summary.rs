@@ -505,6 +505,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 pub const KIND: Kind = Kind {
     name: "wp-summary",
     source: file!(),
+    method: None,
     version: 5,
     about: "work-precision atlas: every work-precision stage's error vs wall time in one table and figure, observed orders, the profile's error and cost",
     params: typed::<SummaryParams>,
