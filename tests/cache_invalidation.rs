@@ -2,22 +2,8 @@
 //! served from the cache; a corrupt or partial entry is recomputed, never used.
 
 mod common;
-use common::{SMALL, TempProject};
+use common::{SMALL, TempProject, opts, sorted};
 use granrepro::pipeline::{Override, Project, RunOptions, load, run::run};
-
-fn opts() -> RunOptions {
-    RunOptions {
-        jobs: 2,
-        quiet: true,
-        ..Default::default()
-    }
-}
-
-fn sorted(v: Vec<&str>) -> Vec<String> {
-    let mut v: Vec<String> = v.into_iter().map(String::from).collect();
-    v.sort();
-    v
-}
 
 #[test]
 fn changing_one_param_reruns_exactly_its_dependants() {

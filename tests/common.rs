@@ -60,3 +60,19 @@ stages:
   - id: laws
     kind: reference-laws
 "#;
+
+/// Run options of the pipeline tests: 2 jobs, no progress bars.
+pub fn opts() -> granrepro::pipeline::RunOptions {
+    granrepro::pipeline::RunOptions {
+        jobs: 2,
+        quiet: true,
+        ..Default::default()
+    }
+}
+
+/// Ids sorted, as owned strings (for comparing a run's stages).
+pub fn sorted(v: Vec<&str>) -> Vec<String> {
+    let mut v: Vec<String> = v.into_iter().map(String::from).collect();
+    v.sort();
+    v
+}

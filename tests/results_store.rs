@@ -5,23 +5,9 @@
 //! results match their lock and re-run byte for byte.
 
 mod common;
-use common::{SMALL, TempProject};
+use common::{SMALL, TempProject, opts, sorted};
 use granrepro::pipeline::store::{self, Caps, Committed};
 use granrepro::pipeline::{Override, Project, RunOptions, load, run::run};
-
-fn opts() -> RunOptions {
-    RunOptions {
-        jobs: 2,
-        quiet: true,
-        ..Default::default()
-    }
-}
-
-fn sorted(v: Vec<&str>) -> Vec<String> {
-    let mut v: Vec<String> = v.into_iter().map(String::from).collect();
-    v.sort();
-    v
-}
 
 /// SMALL run in the paper profile and kept under `results/paper/`.
 fn kept(caps: Caps) -> TempProject {

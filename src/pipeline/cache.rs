@@ -269,6 +269,19 @@ impl Cache {
         Some(blake3::hash(&serde_json::to_vec(&canon).ok()?).to_hex().to_string())
     }
 
+    /// A temp directory for building `key`'s entry, with the key's in-use lock (held while
+    /// the directory exists, so no `clean` removes it under the writer).
+    fn scratch(&self, key: &str) -> std::io::Result<(fsio::Lock, tempfile::TempDir)> {
+        let in_use = fsio::lock_shared(&self.use_path(key))?;
+        fsio::create_dir_all(&self.root)?;
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".tmp-{key}-"))
+            .tempdir_in(&self.root)
+            .map_err(fsio::err_at("cannot create a temp directory in", &self.root))?;
+        fsio::set_mode(tmp.path(), fsio::DIR_MODE)?;
+        Ok((in_use, tmp))
+    }
+
     /// Put a verified entry from another store (the committed results, `pipeline::store`)
     /// in place under `key`: its manifest and the files it lists are copied into a temp
     /// directory, plus `extra` files (not in the manifest), then renamed into place under the
@@ -277,13 +290,7 @@ impl Cache {
         Cache::new(from.parent().unwrap_or(from))
             .verify(from, key)
             .map_err(|why| anyhow::anyhow!("{}: {why}", from.display()))?;
-        let _in_use = fsio::lock_shared(&self.use_path(key))?;
-        fsio::create_dir_all(&self.root)?;
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".tmp-{key}-"))
-            .tempdir_in(&self.root)
-            .map_err(fsio::err_at("cannot create a temp directory in", &self.root))?;
-        fsio::set_mode(tmp.path(), fsio::DIR_MODE)?;
+        let (_in_use, tmp) = self.scratch(key)?;
         let names: Vec<String> = read_manifest(from)
             .map_err(anyhow::Error::msg)?
             .all_files()
@@ -363,13 +370,7 @@ impl Cache {
         replace: bool,
     ) -> anyhow::Result<(PathBuf, Vec<String>)> {
         // The temp directory lives while this is held, so no `clean` removes it under us.
-        let _in_use = fsio::lock_shared(&self.use_path(key))?;
-        fsio::create_dir_all(&self.root)?;
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".tmp-{key}-"))
-            .tempdir_in(&self.root)
-            .map_err(fsio::err_at("cannot create a temp directory in", &self.root))?;
-        fsio::set_mode(tmp.path(), fsio::DIR_MODE)?;
+        let (_in_use, tmp) = self.scratch(key)?;
         let mut files: BTreeMap<String, String> = BTreeMap::new();
         let mut put = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
             anyhow::ensure!(
