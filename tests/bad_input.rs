@@ -1076,3 +1076,27 @@ fn loader_property_findings_name_the_file_and_key() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }
+
+/// A stage file outside the project (an absolute path, or one through `..`) is refused,
+/// naming pipeline.yaml's `params_file` key: the old loader read it (the property test found
+/// `../x` resolving to a stray file outside its temp project and blamed that file instead).
+#[test]
+fn a_stage_file_outside_the_project_is_refused_naming_params_file() {
+    let t = TempProject::new("version: 1\nstages:\n  - id: psd\n    kind: psd\n    params_file: stages/../p.yaml\n");
+    t.write("p.yaml", "n: 100\n");
+    let (code, _, err) = t.cli(&["run", "--quiet", "--dry-run"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("pipeline.yaml:5") && err.contains("stages[psd].params_file"),
+        "{err}"
+    );
+    assert!(err.contains("outside the project"), "{err}");
+    let abs = t.path().join("p.yaml");
+    let t2 = TempProject::new(&format!(
+        "version: 1\nstages:\n  - id: psd\n    kind: psd\n    params_file: {}\n",
+        abs.display()
+    ));
+    let (code, _, err) = t2.cli(&["run", "--quiet", "--dry-run"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("stages[psd].params_file"), "{err}");
+}

@@ -228,6 +228,24 @@ pub(crate) fn load_profile(
                 Some((k, p)) => (Some(k.trim().to_string()), p.trim().to_string()),
                 None => (None, spec.trim().to_string()),
             };
+            // Stage files live inside the project, so the project (and its committed
+            // results) stands alone: no absolute path, no `..`.
+            let escapes = Path::new(&rel).is_absolute()
+                || Path::new(&rel)
+                    .components()
+                    .any(|c| matches!(c, std::path::Component::ParentDir));
+            if escapes {
+                let l = line.and_then(|ln| locate(&text, &["params_file"], ln));
+                diags.push(
+                    path,
+                    l,
+                    format!("stages[{}].params_file", entry.id),
+                    format!("`{rel}` is outside the project"),
+                    "stage files live inside the project: a path relative to the directory of pipeline.yaml, without `..` (copy the file into stages/)",
+                );
+                file_ok = false;
+                continue;
+            }
             let fpath = root.join(&rel);
             let ftext = match std::fs::read_to_string(&fpath) {
                 Ok(t) => t,

@@ -139,7 +139,7 @@ impl Validate for PointParams {
         c.check(
             self.run.t_max > self.run.t_min,
             "run.t_max",
-            self.run.t_max,
+            format!("{} (with run.t_min = {})", self.run.t_max, self.run.t_min),
             "> run.t_min",
         );
         self.ensemble.check(&mut c);

@@ -48,7 +48,7 @@ impl Validate for CollapseStageParams {
         c.check(
             self.run.t_max > self.run.t_min,
             "run.t_max",
-            self.run.t_max,
+            format!("{} (with run.t_min = {})", self.run.t_max, self.run.t_min),
             "> run.t_min",
         );
         c.positive("run.sample_every", self.run.sample_every);

@@ -32,6 +32,18 @@ pub(crate) fn check_dem(p: &DemParams, factor: f64, c: &mut Checker) {
             format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
             &format!("a stable step — {e}. `granrepro run --explain` prints every time scale"),
         );
+        // Without the rolling dashpot the rolling spring is integrated explicitly and its
+        // scale binds: the fix may equally be `rolling.cr` (set in another file than `dt`).
+        if e.to_string().contains("rolling spring") && !(p.rolling.cr > 0.0) {
+            c.fail(
+                "dem.rolling.cr",
+                p.rolling.cr,
+                &format!(
+                    "> 0 (the implicit rolling dashpot) at dem.dt = {:.3e} s, or a smaller dem.dt — {e}",
+                    run.dt
+                ),
+            );
+        }
     }
 }
 

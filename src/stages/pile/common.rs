@@ -26,6 +26,18 @@ pub(crate) fn check_dem_pile(p: &DemParams, factor: f64, c: &mut Checker) {
             format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
             &format!("a stable step for the pile grains — {e}"),
         );
+        // Without the rolling dashpot the rolling spring is integrated explicitly and its
+        // scale binds: the fix may equally be `rolling.cr` (set in another file than `dt`).
+        if e.to_string().contains("rolling spring") && !(p.rolling.cr > 0.0) {
+            c.fail(
+                "dem.rolling.cr",
+                p.rolling.cr,
+                &format!(
+                    "> 0 (the implicit rolling dashpot) at dem.dt = {:.3e} s, or a smaller dem.dt — {e}",
+                    run.dt
+                ),
+            );
+        }
     }
 }
 

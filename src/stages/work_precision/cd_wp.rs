@@ -116,7 +116,7 @@ impl Validate for WpParams {
             ) {
                 c.fail(
                     &format!("variants[{k}].dt"),
-                    v.dt,
+                    format!("{} (with deposit.scale = {})", v.dt, self.deposit.scale),
                     &format!("a step that cannot miss a contact — {m}"),
                 );
             }
