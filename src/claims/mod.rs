@@ -53,5 +53,18 @@ pub fn evaluate_dir(p: &crate::pipeline::Pipeline, dir: &Path) -> Option<Vec<jud
         })
         .collect();
     let read_result = |id: &str| published.get(id).cloned();
-    Some(judge::judge(&l, &read_result, &judge::ancestors(&graph(p))))
+    let mut j = judge::judge(&l, &read_result, &judge::ancestors(&graph(p)));
+    // The ledger's diagnoses were written on the quick profile's results: at another
+    // profile they are shown as such, never as that profile's own diagnosis.
+    if p.profile != "quick" {
+        for r in &mut j {
+            if let Some(d) = &r.row.diagnosis {
+                r.row.diagnosis = Some(format!(
+                    "diagnosed at the quick size, not yet re-examined at the {} size: {d}",
+                    p.profile
+                ));
+            }
+        }
+    }
+    Some(j)
 }
