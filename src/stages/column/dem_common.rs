@@ -3,7 +3,7 @@
 //! back (grains and contact histories).
 
 use crate::dem::prep::{Column, SettleReport};
-use crate::dem::{ContactState, DemParams, SavedHistories, State};
+use crate::dem::{ContactState, DemParams, SavedHistories, SizeClasses, State};
 use crate::pipeline::context::{InputRef, col_f64, frame};
 use crate::validate::Checker;
 
@@ -17,6 +17,20 @@ pub const PREFLIGHT_SIZES: crate::dem::SizeClasses = crate::dem::SizeClasses {
 };
 
 pub(crate) fn check_dem(p: &DemParams, factor: f64, c: &mut Checker) {
+    check_dem_at(
+        p,
+        factor,
+        PREFLIGHT_SIZES,
+        "a stable step",
+        ". `granrepro run --explain` prints every time scale",
+        c,
+    );
+}
+
+/// A DEM block's own checks, then the pre-flight of its softened step on the grain sizes
+/// `sizes` (an unstable step is bad input, exit 2); `what` opens the allowed phrase and
+/// `hint` ends it.
+pub(crate) fn check_dem_at(p: &DemParams, factor: f64, sizes: SizeClasses, what: &str, hint: &str, c: &mut Checker) {
     for i in p.validate() {
         c.fail(&format!("dem.{}", i.key), i.value, &i.allowed);
     }
@@ -24,13 +38,12 @@ pub(crate) fn check_dem(p: &DemParams, factor: f64, c: &mut Checker) {
     if !c.issues.is_empty() {
         return;
     }
-    // Pre-flight before anything runs: an unstable step is bad input (exit 2).
     let run = p.softened(factor);
-    if let Err(e) = crate::dem::preflight(&run, PREFLIGHT_SIZES, true, run.dt) {
+    if let Err(e) = crate::dem::preflight(&run, sizes, true, run.dt) {
         c.fail(
             "dem.dt",
             format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
-            &format!("a stable step — {e}. `granrepro run --explain` prints every time scale"),
+            &format!("{what} — {e}{hint}"),
         );
         // Without the rolling dashpot the rolling spring is integrated explicitly and its
         // scale binds: the fix may equally be `rolling.cr` (set in another file than `dt`).

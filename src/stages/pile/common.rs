@@ -12,33 +12,7 @@ pub const PILE_SIZES: SizeClasses = SizeClasses {
 };
 
 pub(crate) fn check_dem_pile(p: &DemParams, factor: f64, c: &mut Checker) {
-    for i in p.validate() {
-        c.fail(&format!("dem.{}", i.key), i.value, &i.allowed);
-    }
-    c.in_open_closed("stiffness_factor", factor, 0.0, 1.0);
-    if !c.issues.is_empty() {
-        return;
-    }
-    let run = p.softened(factor);
-    if let Err(e) = crate::dem::preflight(&run, PILE_SIZES, true, run.dt) {
-        c.fail(
-            "dem.dt",
-            format!("{:.3e} s (with stiffness_factor {factor})", run.dt),
-            &format!("a stable step for the pile grains — {e}"),
-        );
-        // Without the rolling dashpot the rolling spring is integrated explicitly and its
-        // scale binds: the fix may equally be `rolling.cr` (set in another file than `dt`).
-        if e.to_string().contains("rolling spring") && !(p.rolling.cr > 0.0) {
-            c.fail(
-                "dem.rolling.cr",
-                p.rolling.cr,
-                &format!(
-                    "> 0 (the implicit rolling dashpot) at dem.dt = {:.3e} s, or a smaller dem.dt — {e}",
-                    run.dt
-                ),
-            );
-        }
-    }
+    crate::stages::column::dem_common::check_dem_at(p, factor, PILE_SIZES, "a stable step for the pile grains", "", c);
 }
 
 /// `--explain`: the pre-flight table of a DEM pile stage's parameters (PSD-PILE sizes).
