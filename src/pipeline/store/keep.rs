@@ -54,7 +54,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
     let publish_dir =
         tempfile::tempdir_in(parent).map_err(fsio::err_at("cannot create a temp directory in", parent))?;
     fsio::create_dir_all(&st.join(STORE))?;
-    let errors = atlas_errors(p, proj);
+    let errors = atlas_errors(p, proj, &keys);
     let methods = publish::stage_methods(p);
     let measured = publish::Measured {
         methods: &methods,
@@ -232,8 +232,11 @@ fn sorted_files(dir: &Path) -> anyhow::Result<Vec<String>> {
 }
 
 /// The profile's measured errors for the figures' footers: the atlas stage's table.
-fn atlas_errors(p: &Pipeline, proj: &Project) -> crate::report::measured::ProfileErrors {
-    let keys = key_records(p);
+fn atlas_errors(
+    p: &Pipeline,
+    proj: &Project,
+    keys: &std::collections::HashMap<String, (crate::pipeline::cache::KeyRecord, String)>,
+) -> crate::report::measured::ProfileErrors {
     p.atlas()
         .and_then(|(id, table)| {
             std::fs::read_to_string(proj.cache.entry_dir(&keys[id].1).join(format!("{table}.csv"))).ok()
