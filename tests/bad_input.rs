@@ -929,6 +929,32 @@ fn matrix_key_that_is_not_a_parameter_is_refused_with_file_stage_and_key() {
     );
 }
 
+/// An empty profile matrix leaves the stage out of that profile and only that one (the
+/// paper profile's extra ensemble members); a stage of that profile that reads it is told
+/// the input is missing. Before, the empty list was taken as the stage's matrix and the
+/// stage refused with "empty value list".
+#[test]
+fn empty_profile_matrix_leaves_the_stage_out_of_that_profile() {
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { n: 50 }\n  - id: q\n    kind: psd\n    matrix: { seed: [1, 2] }\n    params: { n: 50 }\n    profiles: { quick: { matrix: { seed: [] } } }\n",
+    );
+    let (code, out, err) = t.cli(&["list"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("p") && !out.contains("q-seed"), "{out}");
+    let (code, out, err) = t.cli(&["list", "--profile", "paper"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("q-seed1") && out.contains("q-seed2"), "{out}");
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: q\n    kind: psd\n    matrix: { seed: [1, 2] }\n    params: { n: 50 }\n    profiles: { quick: { matrix: { seed: [] } } }\n  - id: f\n    kind: psd-figure\n    inputs: { psd: q }\n",
+    );
+    let (code, out, err) = t.cli(&["run", "--dry-run"]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(
+        err.contains("stages[f].inputs") && err.contains("no stage `q`"),
+        "{err}"
+    );
+}
+
 /// A profile's matrix with the stage's own key but a value that is not a list
 /// (`profiles: { quick: { matrix: { seed: 3 } } }`) was refused with "a profile's matrix must
 /// sweep the stage's own matrix key", which blamed the key the user got right. It now names

@@ -96,10 +96,11 @@ fn the_duplicates_of_the_old_report_are_judged_once() {
                 .clone()
                 .or(r.measure.scalar.clone())
                 .unwrap_or_default();
-            r.measure
-                .all_stages()
-                .into_iter()
-                .map(move |s| (s.to_string(), what.clone()))
+            // One entry per run condition: an ensemble's members are one condition.
+            let m = &r.measure;
+            std::iter::once(m.stage.clone())
+                .chain(m.minus.iter().chain(m.over.iter()).map(|o| o.stage.clone()))
+                .map(move |s| (s, what.clone()))
         })
         .collect();
     let has = |s: &str, m: &str| judged.iter().any(|(a, b)| a == s && b == m);
@@ -210,15 +211,17 @@ fn a_claim_about_one_method_is_judged_on_that_method() {
 #[test]
 fn a_stop_rule_that_cannot_end_early_makes_no_claim() {
     // motion-persists-6tau on a run whose stop rule forbids an end before 6 τ_c cannot fail
-    let p = pipeline("quick");
-    for r in ledger()
-        .claims
-        .iter()
-        .filter(|r| r.measure.measurement.as_deref() == Some("motion-persists-6tau"))
-    {
-        for s in r.measure.all_stages() {
-            let t_min = p.get(s).unwrap().params["run"]["stop"]["t_min"].as_f64().unwrap();
-            assert!(t_min < 0.85 * r.paper, "{}: {s} cannot stop before {t_min} τ_c", r.id);
+    for p in [pipeline("quick"), pipeline("paper")] {
+        for r in ledger()
+            .claims
+            .iter()
+            .filter(|r| r.measure.measurement.as_deref() == Some("motion-persists-6tau"))
+        {
+            // Ensemble members absent from a profile are not judged there.
+            for s in r.measure.all_stages().into_iter().filter(|s| p.get(s).is_some()) {
+                let t_min = p.get(s).unwrap().params["run"]["stop"]["t_min"].as_f64().unwrap();
+                assert!(t_min < 0.85 * r.paper, "{}: {s} cannot stop before {t_min} τ_c", r.id);
+            }
         }
     }
 }
@@ -368,5 +371,27 @@ fn the_headline_target_is_the_stages_the_headline_rows_read() {
             c.len() < p.stages.len() && c.iter().any(|id| id == "calib-dem"),
             "{profile}"
         );
+    }
+}
+
+/// Issue 28.4: a verdict on a scene the quick profile runs too small (the 250-grain pile,
+/// the half-size DEM columns) is marked as not comparable with the chapter, with its
+/// reason; the same rows at the paper profile are not, nor are rows that read neither.
+#[test]
+fn rows_on_reduced_quick_scenes_are_marked_and_paper_rows_are_not() {
+    let l = ledger();
+    assert!(!l.reduced.is_empty());
+    for (profile, reduced) in [("quick", true), ("paper", false)] {
+        let p = pipeline(profile);
+        let anc = claims::judge::ancestors(&claims::graph(&p));
+        let mut j = claims::judge::judge(&l, &|_| None, &anc);
+        claims::mark_reduced(&mut j, &l.reduced, profile, &anc);
+        let marked = |id: &str| !j.iter().find(|x| x.id == id).unwrap().not_comparable.is_empty();
+        assert_eq!(marked("pile-alpha"), reduced, "{profile}");
+        assert_eq!(marked("col-runout-low-exponent"), reduced, "{profile}");
+        assert_eq!(marked("col-phases-acc-a0.4"), reduced, "{profile}");
+        // the MPM column alone, and the compression's modulus: not reduced scenes
+        assert!(!marked("col-runout-mpm-linear"), "{profile}");
+        assert!(!marked("col-modulus"), "{profile}");
     }
 }

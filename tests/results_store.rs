@@ -223,3 +223,25 @@ fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
         }
     }
 }
+
+/// A re-keep that carries committed results whose key changed since (a parameter changed,
+/// not yet re-run) marks them in the index as not current and lists them; before, the
+/// index showed them, and judged claims on them, as current.
+#[test]
+fn a_rekeep_marks_carried_stale_results_as_not_current() {
+    let t = kept(Caps::default());
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let sets = vec![Override::parse("psd-a.seed=3").unwrap()];
+    let p2 = load(&t.pipeline(), "paper", &sets).unwrap();
+    let k = store::keep(&p2, &proj, Caps::default()).unwrap();
+    assert!(k.kept.is_empty(), "{k:?}");
+    assert_eq!(
+        sorted(k.not_current.iter().map(String::as_str).collect()),
+        ["fig-a", "psd-a", "tab"]
+    );
+    let index = std::fs::read_to_string(store::dir_of(t.path(), "paper").join("index.html")).unwrap();
+    let marked = |id: &str| index.contains(&format!("<h3>{id}</h3><p class=\"fail\">Not current — stale"));
+    assert!(marked("psd-a") && marked("fig-a") && marked("tab"), "{index}");
+    assert!(!marked("psd-b") && !marked("laws"));
+}

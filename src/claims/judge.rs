@@ -77,6 +77,19 @@ pub struct Judged {
     pub note: String,
     /// What tuned values it rests on (empty: none).
     pub calibrated: Vec<String>,
+    /// Why the profile's scene is too small to set this row against the chapter (empty:
+    /// comparable). The verdict stands, as a test of the pipeline at that size.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub not_comparable: Vec<NotComparable>,
+}
+
+/// A reduced scene a row is judged on (the ledger's `reduced`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NotComparable {
+    /// The scene ("the pile").
+    pub scene: String,
+    /// Why it cannot be set against the chapter at this size.
+    pub why: String,
 }
 
 fn mean_sd(x: &[f64]) -> (f64, Option<f64>) {
@@ -321,6 +334,7 @@ pub fn judge(
                 verdict,
                 note,
                 calibrated: calibrated.into_iter().collect(),
+                not_comparable: Vec::new(),
             }
         })
         .collect()

@@ -217,6 +217,32 @@ impl Tuned {
     }
 }
 
+/// A scene a profile runs reduced so far that its results test the pipeline, not the
+/// chapter (the quick pile: 250 grains against ≈ 13,000). Every row reading it, or a
+/// stage downstream of it, is shown at that profile as not comparable, with `why`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reduced {
+    /// The profile (quick).
+    pub profile: String,
+    /// The scene, as the report names it ("the pile").
+    pub scene: String,
+    /// Stage ids (or, ending in `*`, id prefixes).
+    pub stages: Vec<String>,
+    /// Why its results cannot be set against the chapter's, with numbers.
+    pub why: String,
+}
+
+impl Reduced {
+    /// Does this entry name stage `id`?
+    pub fn matches(&self, id: &str) -> bool {
+        self.stages.iter().any(|s| match s.strip_suffix('*') {
+            Some(prefix) => id.starts_with(prefix),
+            None => s == id,
+        })
+    }
+}
+
 /// The whole ledger.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -224,6 +250,9 @@ pub struct Ledger {
     /// Tuned stages.
     #[serde(default)]
     pub tuned: Vec<Tuned>,
+    /// Scenes a profile runs too small to compare with the chapter.
+    #[serde(default)]
+    pub reduced: Vec<Reduced>,
     /// The rows, in chapter order.
     pub claims: Vec<Row>,
 }
@@ -360,6 +389,30 @@ pub fn validate(l: &Ledger, file: &Path, text: &str, stage_ids: Option<&BTreeSet
                 format!("judges the same chapter sentence on the same measurement as `{first}`"),
                 "keep one row: a sentence is judged once per measurement",
             );
+        }
+    }
+    for (i, r) in l.reduced.iter().enumerate() {
+        if !crate::pipeline::spec::PROFILES.contains(&r.profile.as_str()) {
+            out.push(diag(
+                file,
+                text,
+                &["reduced"],
+                format!("reduced[{i}].profile"),
+                format!("unknown profile `{}`", r.profile),
+                &format!("allowed: {}", crate::pipeline::spec::PROFILES.join(", ")),
+            ));
+        }
+        for st in &r.stages {
+            if !st.ends_with('*') && stage_ids.is_some_and(|ids| !ids.contains(st)) {
+                out.push(diag(
+                    file,
+                    text,
+                    &["reduced"],
+                    format!("reduced[{i}].stages"),
+                    format!("stage `{st}` is not declared in pipeline.yaml"),
+                    "name a stage id, or an id prefix ending in `*`",
+                ));
+            }
         }
     }
     for (i, t) in l.tuned.iter().enumerate() {

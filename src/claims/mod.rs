@@ -23,7 +23,7 @@ pub mod ledger;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-pub use ledger::{Kind, LEDGER_FILE, Ledger, Measure, Row, Tolerance, Tuned, check, read, validate};
+pub use ledger::{Kind, LEDGER_FILE, Ledger, Measure, Reduced, Row, Tolerance, Tuned, check, read, validate};
 
 /// The profile's stage graph as `id → the stages it reads`.
 pub fn graph(p: &crate::pipeline::Pipeline) -> BTreeMap<String, Vec<String>> {
@@ -53,7 +53,9 @@ pub fn evaluate_dir(p: &crate::pipeline::Pipeline, dir: &Path) -> Option<Vec<jud
         })
         .collect();
     let read_result = |id: &str| published.get(id).cloned();
-    let mut j = judge::judge(&l, &read_result, &judge::ancestors(&graph(p)));
+    let ancestors = judge::ancestors(&graph(p));
+    let mut j = judge::judge(&l, &read_result, &ancestors);
+    mark_reduced(&mut j, &l.reduced, &p.profile, &ancestors);
     // The ledger's diagnoses were written on the quick profile's results: at another
     // profile they are shown as such, never as that profile's own diagnosis.
     if p.profile != "quick" {
@@ -67,4 +69,30 @@ pub fn evaluate_dir(p: &crate::pipeline::Pipeline, dir: &Path) -> Option<Vec<jud
         }
     }
     Some(j)
+}
+
+/// Mark the rows that read a scene `profile` runs reduced (or a stage downstream of one):
+/// their verdicts test the pipeline at that size, not the chapter.
+pub fn mark_reduced(
+    j: &mut [judge::Judged],
+    reduced: &[Reduced],
+    profile: &str,
+    ancestors: &BTreeMap<String, std::collections::BTreeSet<String>>,
+) {
+    for r in j.iter_mut() {
+        let mut why: Vec<judge::NotComparable> = Vec::new();
+        for s in r.row.measure.all_stages() {
+            for anc in ancestors.get(s).into_iter().flatten() {
+                for e in reduced.iter().filter(|e| e.profile == profile && e.matches(anc)) {
+                    if !why.iter().any(|w| w.scene == e.scene) {
+                        why.push(judge::NotComparable {
+                            scene: e.scene.clone(),
+                            why: e.why.clone(),
+                        });
+                    }
+                }
+            }
+        }
+        r.not_comparable = why;
+    }
 }

@@ -246,13 +246,18 @@ pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path)
     for j in &judged {
         let ours = crate::report::ledger::ours_text(j);
         println!(
-            "{:<34} {:<12} paper {:<10} ours {:<28} {}{}",
+            "{:<34} {:<12} paper {:<10} ours {:<28} {}{}{}",
             j.id,
             j.kind,
             n4(j.paper),
             ours,
             j.verdict.name(),
-            if j.calibrated.is_empty() { "" } else { " (calibrated)" }
+            if j.calibrated.is_empty() { "" } else { " (calibrated)" },
+            if j.not_comparable.is_empty() || j.values.is_empty() {
+                ""
+            } else {
+                " [not comparable with the chapter at this size]"
+            }
         );
     }
     let c = crate::claims::judge::counts(&judged);
@@ -324,6 +329,13 @@ pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f
                 k.bytes as f64 / 1048576.0,
                 dir.display()
             );
+            if !k.not_current.is_empty() {
+                println!(
+                    "  carried but not current (shown marked, judged as not run; `granrepro status --profile {}`): {}",
+                    p.profile,
+                    k.not_current.join(", ")
+                );
+            }
             for (id, f, n) in &k.left_out {
                 println!(
                     "  left out {id}: {f} ({:.1} MB; `granrepro run --profile {} --stage {id}` regenerates it)",

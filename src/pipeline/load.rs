@@ -150,7 +150,10 @@ pub(crate) fn load_profile(
         // A profile may sweep other values of the stage's matrix key (`profiles: { quick:
         // { matrix: { a: [0.4, 6] } } }`): fewer aspect ratios in the quick profile, the
         // chapter's list in the paper one. It replaces the values, never the key.
+        // An empty list leaves the stage out of that profile (extra ensemble members the
+        // quick budget has no room for); its dependants there must not name it.
         let mut profile_matrix_bad = false;
+        let mut absent_here = false;
         for (pname, pm) in entry.profiles.iter_mut() {
             let Some(mv) = pm.remove(Yaml::String("matrix".into())) else {
                 continue;
@@ -181,6 +184,7 @@ pub(crate) fn load_profile(
             match serde_yaml::from_value::<Vec<Yaml>>(v) {
                 Ok(values) => {
                     if pname == profile {
+                        absent_here = values.is_empty();
                         entry.matrix = Some(BTreeMap::from([(k, values)]));
                     }
                 }
@@ -201,6 +205,9 @@ pub(crate) fn load_profile(
         }
         if profile_matrix_bad {
             rejected.insert(entry.id.clone());
+            continue;
+        }
+        if absent_here {
             continue;
         }
         for p in entry.profiles.keys() {

@@ -492,7 +492,15 @@ fn publish_all(
             .then(|| crate::pipeline::load(&p.path, "paper", &[]).ok())
             .flatten()
             .and_then(|pp| super::store::fresh_judged(&pp, &committed));
-        crate::report::html::write_index_of(&dir, &p.profile, &all, judged.as_deref(), paper.as_deref(), p.atlas())?;
+        crate::report::html::write_index_of(
+            &dir,
+            &p.profile,
+            &all,
+            judged.as_deref(),
+            paper.as_deref(),
+            p.atlas(),
+            &Default::default(),
+        )?;
     }
     Ok(())
 }

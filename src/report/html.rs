@@ -5,6 +5,7 @@
 //! it (with numbers), each section closed by its ledger table, and the input checks listed
 //! apart; rebuilt from the published `ID.json` / `ID.record.json` files after each run.
 
+use std::collections::BTreeMap;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -29,7 +30,7 @@ pub fn write_index(dir: &Path, profile: &str, judged: Option<&[Judged]>) -> std:
         .filter(|n| n.ends_with(".json") && !n.ends_with(".record.json"))
         .map(|n| n.trim_end_matches(".json").to_string())
         .collect();
-    write_index_of(dir, profile, &ids, judged, None, None)
+    write_index_of(dir, profile, &ids, judged, None, None, &BTreeMap::new())
 }
 
 /// Where a stage sits in the chapter: (section, order key). Figures and tables by their
@@ -113,6 +114,7 @@ pub fn write_index_of(
     judged: Option<&[Judged]>,
     paper: Option<&[Judged]>,
     atlas: Option<(&str, &str)>,
+    not_current: &BTreeMap<String, String>,
 ) -> std::io::Result<()> {
     let judged = judged.unwrap_or(&[]);
     let ids: Vec<String> = ids
@@ -254,6 +256,14 @@ pub fn write_index_of(
             );
         }
         let _ = write!(body, "<figure id=\"{i}\"><h3>{i}</h3>", i = esc(id));
+        if let Some(why) = not_current.get(id) {
+            let _ = write!(
+                body,
+                "<p class=\"fail\">Not current — {}. Shown as committed; no claim is judged on it (<code>granrepro status --profile {}</code>).</p>",
+                esc(why),
+                esc(profile)
+            );
+        }
         if has_svg {
             let _ = write!(
                 body,

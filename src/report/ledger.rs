@@ -97,7 +97,53 @@ fn verdict_cell(j: &Judged) -> String {
     {
         let _ = write!(s, "<br><small><i>why:</i> {}</small>", esc(d));
     }
+    s.push_str(&not_comparable(j));
     s
+}
+
+/// The mark of a row whose scene this profile runs too small to compare with the chapter.
+fn not_comparable(j: &Judged) -> String {
+    if j.not_comparable.is_empty() || j.values.is_empty() {
+        return String::new();
+    }
+    format!(
+        "<br><small class=\"reduced\"><b>not comparable with the chapter at this size</b>: {} (<a href=\"#reduced\">why</a>)</small>",
+        esc(&scenes(j).join(", "))
+    )
+}
+
+fn scenes(j: &Judged) -> Vec<String> {
+    j.not_comparable.iter().map(|n| n.scene.clone()).collect()
+}
+
+/// The reduced scenes the rows are judged on, each once with its reason (empty: none).
+fn reduced_paragraph(j: &[Judged], profile: &str) -> String {
+    let mut seen: Vec<&crate::claims::judge::NotComparable> = Vec::new();
+    for n in j
+        .iter()
+        .filter(|x| !x.values.is_empty())
+        .flat_map(|x| x.not_comparable.iter())
+    {
+        if !seen.iter().any(|s| s.scene == n.scene) {
+            seen.push(n);
+        }
+    }
+    if seen.is_empty() {
+        return String::new();
+    }
+    let rows = j
+        .iter()
+        .filter(|x| !x.values.is_empty() && !x.not_comparable.is_empty())
+        .count();
+    let mut h = format!(
+        "<div id=\"reduced\" style=\"border-left:4px solid #b00020;padding:2px 10px;margin:8px 0\"><p><b>Not the chapter's verdicts.</b> The {p} profile runs these scenes too small to set against the chapter; the {rows} rows judged on them (marked <i>not comparable at this size</i>) test the pipeline, not the chapter. The paper profile runs them at the chapter's size (the column <i>ours (paper)</i>).</p><ul>",
+        p = esc(profile)
+    );
+    for n in seen {
+        let _ = write!(h, "<li><b>{}</b>: {}</li>", esc(&n.scene), esc(&n.why));
+    }
+    h.push_str("</ul></div>");
+    h
 }
 
 /// The rows' table (section tables and beside figures).
@@ -145,6 +191,7 @@ pub fn rows_table(rows: &[&Judged]) -> String {
 pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String {
     let mut h = String::new();
     h.push_str("<h2 id=\"headline\">The chapter's headline results</h2><p><small>One row per principal result of §4.2–4.4, judged once in the claims ledger (<code>stages/ledger.yaml</code>). A row with several parts (two aspect ratios, two methods) is reproduced only if every part is. <i>Reproduced</i>: the mean is within the tolerance and 2 s.e. &lt; tolerance; <i>not resolved</i>: the uncertainty is as large as the tolerance, or a chaotic output has one member (its spread unknown); <i>missed</i> otherwise. The tolerance is the chapter's ± where it states one, else 15 %; it is never widened by the spread. <b>calibrated</b>: rests on a tuned value.</small></p>");
+    h.push_str(&reduced_paragraph(j, profile));
     let _ = write!(
         h,
         "<table class=\"ledger\"><tr><th>result</th><th>the chapter</th><th>chapter's value</th><th>ours ({p})</th>{paper_col}<th>verdict ({p})</th><th>if missed or not resolved: why</th></tr>",
@@ -168,7 +215,7 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
                 String::new()
             }
         };
-        let why: Vec<String> = parts
+        let mut why: Vec<String> = parts
             .iter()
             .filter(|p| matches!(p.verdict, Verdict::Missed | Verdict::NotResolved))
             .map(|p| {
@@ -186,6 +233,22 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
                 s
             })
             .collect();
+        // Once per headline: the scenes too small here (the reasons are above the table).
+        let mut reduced: Vec<String> = Vec::new();
+        for p in parts.iter().filter(|p| !p.values.is_empty()) {
+            for s in scenes(p) {
+                if !reduced.contains(&s) {
+                    reduced.push(s);
+                }
+            }
+        }
+        if !reduced.is_empty() {
+            why.push(format!(
+                "<b>not comparable at the {} size</b>: {} (<a href=\"#reduced\">why</a>)",
+                esc(profile),
+                esc(&reduced.join(", "))
+            ));
+        }
         let _ = write!(
             h,
             "<tr><td><a href=\"#claim-{first}\"><b>{id}</b></a><br><small>§{sec} · {method}</small></td><td><small>{chapter}</small></td><td>{paper}</td><td>{ours}</td>{ours_paper}<td>{verdict}</td><td><small>{why}</small></td></tr>",
@@ -210,7 +273,19 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
             } else {
                 "<td>not run yet</td>".to_string()
             },
-            verdict = format!("<span class=\"{}\">{}</span>", class(hl.verdict), hl.verdict.name()),
+            verdict = format!(
+                "<span class=\"{}\">{}</span>{}",
+                class(hl.verdict),
+                hl.verdict.name(),
+                if parts
+                    .iter()
+                    .any(|p| !p.not_comparable.is_empty() && !p.values.is_empty())
+                {
+                    "<br><small class=\"reduced\"><b>not comparable at this size</b></small>"
+                } else {
+                    ""
+                }
+            ),
             why = why.join("<br>"),
         );
     }
@@ -219,7 +294,12 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
     let c = counts(j);
     let get = |k: Kind, v: Verdict| c.get(&(k, v)).copied().unwrap_or(0);
     let cal = |k: Kind| j.iter().filter(|x| x.row.kind == k && !x.calibrated.is_empty()).count();
-    h.push_str("<h2 id=\"counts\">Every claim of the ledger, counted by kind</h2><table><tr><th>kind</th><th>rows</th><th>reproduced</th><th>missed</th><th>not resolved</th><th>not run</th><th>of which rest on a tuned value (calibrated)</th></tr>");
+    let reduced = |k: Kind| {
+        j.iter()
+            .filter(|x| x.row.kind == k && !x.not_comparable.is_empty() && !x.values.is_empty())
+            .count()
+    };
+    h.push_str("<h2 id=\"counts\">Every claim of the ledger, counted by kind</h2><table><tr><th>kind</th><th>rows</th><th>reproduced</th><th>missed</th><th>not resolved</th><th>not run</th><th>of which rest on a tuned value (calibrated)</th><th>of which judged on a scene too small to compare with the chapter</th></tr>");
     for (k, what) in [
         (Kind::Quantitative, "quantitative (a number of the chapter)"),
         (Kind::Qualitative, "qualitative (a direction only)"),
@@ -228,12 +308,13 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
         let total = j.iter().filter(|x| x.row.kind == k).count();
         let _ = write!(
             h,
-            "<tr><td>{what}</td><td>{total}</td><td class=\"pass\">{}</td><td class=\"fail\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{what}</td><td>{total}</td><td class=\"pass\">{}</td><td class=\"fail\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             get(k, Verdict::Reproduced),
             get(k, Verdict::Missed) + get(k, Verdict::NoMeasurement),
             get(k, Verdict::NotResolved),
             get(k, Verdict::NotRun),
-            cal(k)
+            cal(k),
+            reduced(k)
         );
     }
     h.push_str("</table>");

@@ -22,6 +22,8 @@ pub struct Kept {
     pub carried: Vec<String>,
     /// Stages with nothing to keep.
     pub missing: Vec<String>,
+    /// Carried from the former lock but no longer current (stale, changed code, corrupt).
+    pub not_current: Vec<String>,
     /// Files left out: (stage, name, bytes).
     pub left_out: Vec<(String, String, u64)>,
     /// Bytes written under `results/<profile>/`.
@@ -134,14 +136,20 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
         }
     }
     drop(publish_dir);
-    // The ledger and the index, judged on what is kept.
+    // The ledger and the index, judged on what is kept and fresh: a carried result whose
+    // key or code changed since is shown as committed, marked, and judges no claim.
+    fsio::write_new(&st.join(LOCK), &serde_json::to_vec_pretty(&lock)?)?;
     let ids: Vec<String> = p.stages.iter().map(|s| s.id.clone()).collect();
-    let judged = crate::claims::evaluate_dir(p, st);
+    let not_current: BTreeMap<String, String> = super::status(p, st, &lock)
+        .into_iter()
+        .filter_map(|(id, c)| c.describe().map(|d| (id, d)))
+        .collect();
+    out.not_current = not_current.keys().cloned().collect();
+    let judged = super::fresh_judged(p, st);
     if let Some(j) = &judged {
         crate::report::ledger::write_files(st, j)?;
     }
-    crate::report::html::write_index_of(st, &p.profile, &ids, judged.as_deref(), None, p.atlas())?;
-    fsio::write_new(&st.join(LOCK), &serde_json::to_vec_pretty(&lock)?)?;
+    crate::report::html::write_index_of(st, &p.profile, &ids, judged.as_deref(), None, p.atlas(), &not_current)?;
     // Swap: old aside, new in place, old removed.
     let staging = staging.keep();
     let trash = parent.join(format!(

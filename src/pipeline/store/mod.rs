@@ -166,6 +166,18 @@ pub enum Committed {
     Corrupt(Vec<String>),
 }
 
+impl Committed {
+    /// Why the result is not current (None: fresh).
+    pub fn describe(&self) -> Option<String> {
+        match self {
+            Committed::Fresh => None,
+            Committed::Stale(w) => Some(format!("stale: {}", w.join("; "))),
+            Committed::ChangedCode(w) => Some(format!("built from code changed since: {}", w.join("; "))),
+            Committed::Corrupt(w) => Some(format!("corrupt: {}", w.join("; "))),
+        }
+    }
+}
+
 /// The committed state of every pipeline stage the lock holds (pipeline order).
 pub fn status(p: &Pipeline, dir: &Path, lock: &Lock) -> Vec<(String, Committed)> {
     let keys = key_records(p);

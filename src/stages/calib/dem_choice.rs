@@ -298,11 +298,15 @@ fn run_calib(ctx: &StageCtx) -> anyhow::Result<Output> {
         Rule::FrictionAngle => "the point calibrated on the friction angle",
     };
     for &(a, m, s, law) in &chosen.runouts {
+        // Named by regime, not by a: the prepared column's a (5.8 at quick size, 5.9 at
+        // paper size for a target of 6) must not change the name the ledger reads.
+        let regime = if a <= 2.7 { "short" } else { "tall" };
         out.scalar(&format!("runout_mean_a{a}"), m)
-            .scalar(&format!("runout_std_a{a}"), s);
+            .scalar(&format!("runout_std_a{a}"), s)
+            .scalar(&format!("runout_over_eq46_{regime}"), m / law);
         out.claims.push(
             Claim::rel(
-                &format!("runout-eq4.6-a{a}"),
+                &format!("runout-eq4.6-{regime}"),
                 &format!(
                     "eq 4.6 run-out at a = {a}: (L_f − L_0)/L_0 ≈ {} — ensemble mean ± {s:.3} (s.d.) at {by}",
                     if a <= 2.7 { "1.67a" } else { "2.7a^(2/3)" }
@@ -496,7 +500,7 @@ pub const CALIB_KIND: Kind = Kind {
     name: "dem-calibration",
     source: file!(),
     method: Some(crate::engines::Method::Dem),
-    version: 2,
+    version: 3, // 3: eq 4.6 run-outs named by regime (runout-eq4.6-short / -tall)
     about: "DEM calibration: gathers dem-calibration-point stages and chooses μ_r and the rolling model by a stated rule (joint if a point meets φ_cs and eq 4.6, else the stage's calib_target: flows or friction-angle)",
     params: typed::<CalibParams>,
     run: run_calib,
@@ -505,7 +509,8 @@ pub const CALIB_KIND: Kind = Kind {
     outputs: crate::stages::kind::Outputs {
         scalars: &[
             "both_targets_met", "cost", "friction_angle_deg", "friction_window_points", "grid_points", "mu_r",
-            "rolling_model_capped", "runout_mean_a*", "runout_std_a*", "runout_window_points",
+            "rolling_model_capped", "runout_mean_a*", "runout_over_eq46_short", "runout_over_eq46_tall",
+            "runout_std_a*", "runout_window_points",
         ],
         tables: &[crate::stages::kind::TableDecl {
             name: "table",
@@ -514,7 +519,7 @@ pub const CALIB_KIND: Kind = Kind {
                 "pick_friction_angle", "runout_mean_a*", "runout_miss", "runout_over_eq46_a*", "runout_std_a*",
             ],
         }],
-        measurements: &["friction-angle", "runout-eq4.6-a*"],
+        measurements: &["friction-angle", "runout-eq4.6-short", "runout-eq4.6-tall"],
         texts: &["rule", "rule_reason"],
     },
     reads: None,
