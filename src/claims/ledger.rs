@@ -187,6 +187,10 @@ pub struct Row {
     /// odds with itself), then the reasoning.
     #[serde(default)]
     pub diagnosis: Option<String>,
+    /// The diagnosis as examined on another profile's results (`{paper: "..."}`): shown
+    /// there instead of `diagnosis`, which was written on the quick profile's.
+    #[serde(default)]
+    pub diagnosis_at: std::collections::BTreeMap<String, String>,
     /// Our reading of an ambiguous statement (which definition, which time).
     #[serde(default)]
     pub reading: Option<String>,
@@ -207,13 +211,18 @@ pub struct Tuned {
     pub what: String,
 }
 
+/// Does `pattern` (a stage id, or an id prefix ending in `*`) name stage `id`?
+fn names(pattern: &str, id: &str) -> bool {
+    match pattern.strip_suffix('*') {
+        Some(prefix) => id.starts_with(prefix),
+        None => pattern == id,
+    }
+}
+
 impl Tuned {
     /// Does this entry name stage `id`?
     pub fn matches(&self, id: &str) -> bool {
-        match self.stage.strip_suffix('*') {
-            Some(prefix) => id.starts_with(prefix),
-            None => self.stage == id,
-        }
+        names(&self.stage, id)
     }
 }
 
@@ -236,10 +245,7 @@ pub struct Reduced {
 impl Reduced {
     /// Does this entry name stage `id`?
     pub fn matches(&self, id: &str) -> bool {
-        self.stages.iter().any(|s| match s.strip_suffix('*') {
-            Some(prefix) => id.starts_with(prefix),
-            None => s == id,
-        })
+        self.stages.iter().any(|s| names(s, id))
     }
 }
 
@@ -300,7 +306,7 @@ pub fn read(root: &Path) -> Result<Option<(Ledger, PathBuf, String)>, Vec<Diagno
                 &segs,
                 key.clone(),
                 inner,
-                "a row has id, section, chapter, measured, method, paper, tolerance ({abs|rel|at_least|at_most: x} or {range: [lo, hi]}), kind (quantitative | qualitative | check) and measure {stage, measurement | scalar}; optional: figure, stated, chaotic, headline, diagnosis, reading, tuned",
+                "a row has id, section, chapter, measured, method, paper, tolerance ({abs|rel|at_least|at_most: x} or {range: [lo, hi]}), kind (quantitative | qualitative | check) and measure {stage, measurement | scalar}; optional: figure, stated, chaotic, headline, diagnosis, diagnosis_at, reading, tuned",
             )])
         }
     }
@@ -389,6 +395,20 @@ pub fn validate(l: &Ledger, file: &Path, text: &str, stage_ids: Option<&BTreeSet
                 format!("judges the same chapter sentence on the same measurement as `{first}`"),
                 "keep one row: a sentence is judged once per measurement",
             );
+        }
+    }
+    for r in &l.claims {
+        for p in r.diagnosis_at.keys() {
+            if !crate::pipeline::spec::PROFILES.contains(&p.as_str()) {
+                out.push(diag(
+                    file,
+                    text,
+                    &["claims", r.id.as_str()],
+                    format!("claims[{}].diagnosis_at.{p}", r.id),
+                    format!("unknown profile `{p}`"),
+                    &format!("allowed: {}", crate::pipeline::spec::PROFILES.join(", ")),
+                ));
+            }
         }
     }
     for (i, r) in l.reduced.iter().enumerate() {

@@ -57,10 +57,13 @@ pub fn evaluate_dir(p: &crate::pipeline::Pipeline, dir: &Path) -> Option<Vec<jud
     let mut j = judge::judge(&l, &read_result, &ancestors);
     mark_reduced(&mut j, &l.reduced, &p.profile, &ancestors);
     // The ledger's diagnoses were written on the quick profile's results: at another
-    // profile they are shown as such, never as that profile's own diagnosis.
+    // profile they are shown as such, never as that profile's own diagnosis, unless the
+    // row has one examined there (`diagnosis_at`).
     if p.profile != "quick" {
         for r in &mut j {
-            if let Some(d) = &r.row.diagnosis {
+            if let Some(d) = r.row.diagnosis_at.get(&p.profile) {
+                r.row.diagnosis = Some(d.clone());
+            } else if let Some(d) = &r.row.diagnosis {
                 r.row.diagnosis = Some(format!(
                     "diagnosed at the quick size, not yet re-examined at the {} size: {d}",
                     p.profile
