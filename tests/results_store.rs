@@ -245,3 +245,23 @@ fn a_rekeep_marks_carried_stale_results_as_not_current() {
     assert!(marked("psd-a") && marked("fig-a") && marked("tab"), "{index}");
     assert!(!marked("psd-b") && !marked("laws"));
 }
+
+/// Two stages declared with the same work share one cache key (the paper profile's
+/// calib-prep-a0.4 is col-dem-prep-a0.4): keep stores the entry once and locks both.
+/// Before, the second copy failed with "File exists" and nothing was kept.
+#[test]
+fn two_stages_with_one_key_share_one_store_entry() {
+    let t = TempProject::new(&format!(
+        "{SMALL}  - id: psd-a-again\n    kind: psd\n    params: {{ n: 300, seed: 1 }}\n"
+    ));
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    run(&p, &proj, &opts()).unwrap();
+    let k = store::keep(&p, &proj, Caps::default()).unwrap();
+    assert_eq!(k.kept.len(), 6, "{k:?}");
+    let dir = store::dir_of(t.path(), "paper");
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    assert_eq!(lock.stages["psd-a"].key, lock.stages["psd-a-again"].key);
+    assert!(store::verify(&dir, &lock).is_empty());
+    assert_eq!(state(&p, &t, "psd-a-again"), Committed::Fresh);
+}

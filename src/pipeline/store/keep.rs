@@ -181,6 +181,9 @@ fn store_entry(
     out: &mut super::Kept,
     id: &str,
 ) -> anyhow::Result<()> {
+    // Two stages with one key (the same work declared twice: calib-prep-a0.4 is
+    // col-dem-prep-a0.4) share one store entry, written once.
+    let shared = to.exists();
     fsio::create_dir_all(to)?;
     let manifest: Value = serde_json::from_slice(&fsio::read(&from.join("manifest.json"))?)?;
     let files: BTreeMap<String, String> = serde_json::from_value(manifest["files"].clone())?;
@@ -195,21 +198,27 @@ fn store_entry(
             }
             continue;
         }
-        copy(&from.join(name), &to.join(name), &mut out.bytes)?;
+        if !shared {
+            copy(&from.join(name), &to.join(name), &mut out.bytes)?;
+        }
         l.store.insert(name.clone(), h.clone());
         kept.insert(name.clone(), Value::String(h.clone()));
     }
     if let Some(r) = manifest.get("record").and_then(Value::as_str) {
-        copy(&from.join("record.json"), &to.join("record.json"), &mut out.bytes)?;
+        if !shared {
+            copy(&from.join("record.json"), &to.join("record.json"), &mut out.bytes)?;
+        }
         l.store.insert("record.json".into(), r.to_string());
     }
     let mut m = manifest.clone();
     m["files"] = Value::Object(kept);
     m["key"] = Value::String(key.to_string());
     let bytes = serde_json::to_vec_pretty(&m)?;
-    fsio::write_new(&to.join("manifest.json"), &bytes)?;
+    if !shared {
+        fsio::write_new(&to.join("manifest.json"), &bytes)?;
+        out.bytes += bytes.len() as u64;
+    }
     l.store.insert("manifest.json".into(), hash_bytes(&bytes));
-    out.bytes += bytes.len() as u64;
     Ok(())
 }
 
