@@ -930,8 +930,8 @@ fn matrix_key_that_is_not_a_parameter_is_refused_with_file_stage_and_key() {
 }
 
 /// An empty profile matrix leaves the stage out of that profile and only that one (the
-/// paper profile's extra ensemble members); a stage of that profile that reads it is told
-/// the input is missing. Before, the empty list was taken as the stage's matrix and the
+/// paper profile's extra ensemble members); a stage of that profile that reads it is
+/// refused at the empty list, naming the reader. Before, the empty list was taken as the stage's matrix and the
 /// stage refused with "empty value list".
 #[test]
 fn empty_profile_matrix_leaves_the_stage_out_of_that_profile() {
@@ -949,8 +949,9 @@ fn empty_profile_matrix_leaves_the_stage_out_of_that_profile() {
     );
     let (code, out, err) = t.cli(&["run", "--dry-run"]);
     assert_eq!(code, 2, "{out}{err}");
+    // The root cause is named: the empty list, and who reads the stage it leaves out.
     assert!(
-        err.contains("stages[f].inputs") && err.contains("no stage `q`"),
+        err.contains("stages[q].profiles.quick.matrix.seed") && err.contains("`f` reads it"),
         "{err}"
     );
 }

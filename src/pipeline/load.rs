@@ -78,6 +78,8 @@ pub(crate) fn load_profile(
     let mut pending_inputs: Vec<(usize, Option<InputsSpec>, Option<(String, String)>, Option<usize>)> = Vec::new();
     // Stages that exist but were rejected: their dependants are not told "no such stage".
     let mut rejected: std::collections::HashSet<String> = std::collections::HashSet::new();
+    // Stages an empty profile matrix leaves out of this profile: where that is written.
+    let mut absent: HashMap<String, (Option<usize>, String)> = HashMap::new();
     // What each stage's params name of its inputs, located in the file that wrote the key.
     let mut stage_reads: Vec<Vec<super::reads::Located>> = Vec::new();
     let known = known_ids(&file.stages);
@@ -185,6 +187,15 @@ pub(crate) fn load_profile(
                 Ok(values) => {
                     if pname == profile {
                         absent_here = values.is_empty();
+                        if absent_here {
+                            let lk = line
+                                .and_then(|ln| locate(&text, &["profiles", pname, "matrix", &k], ln))
+                                .or(l);
+                            absent.insert(
+                                entry.id.clone(),
+                                (lk, format!("stages[{}].profiles.{pname}.matrix.{k}", entry.id)),
+                            );
+                        }
                         entry.matrix = Some(BTreeMap::from([(k, values)]));
                     }
                 }
@@ -685,6 +696,19 @@ pub(crate) fn load_profile(
                 }
                 if members.is_empty() && of_rejected {
                     continue; // already reported where it is defined
+                }
+                if members.is_empty()
+                    && let Some((al, key)) = absent.get(&r)
+                {
+                    let sid = stages[idx].id.clone();
+                    diags.push(
+                        path,
+                        *al,
+                        key.clone(),
+                        format!("an empty list leaves `{r}` out of the `{profile}` profile, but `{sid}` reads it (input `{role}`)"),
+                        "give this profile's matrix its values, or leave the reading stage out of the profile too",
+                    );
+                    continue;
                 }
                 if members.is_empty() {
                     let l = line.and_then(|ln| locate(&text, &["inputs"], ln));
