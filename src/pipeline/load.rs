@@ -3,7 +3,7 @@
 //! layering rules). Every problem is collected with file, line and key; nothing runs until
 //! the whole pipeline is valid.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use serde_yaml::{Mapping, Value as Yaml};
@@ -149,77 +149,16 @@ pub(crate) fn load_profile(
             );
             continue;
         }
-        // A profile may sweep other values of the stage's matrix key (`profiles: { quick:
-        // { matrix: { a: [0.4, 6] } } }`): fewer aspect ratios in the quick profile, the
-        // chapter's list in the paper one. It replaces the values, never the key.
-        // An empty list leaves the stage out of that profile (extra ensemble members the
-        // quick budget has no room for); its dependants there must not name it.
-        let mut profile_matrix_bad = false;
-        let mut absent_here = false;
-        for (pname, pm) in entry.profiles.iter_mut() {
-            let Some(mv) = pm.remove(Yaml::String("matrix".into())) else {
-                continue;
-            };
-            let l = line.and_then(|ln| locate(&text, &["profiles", pname, "matrix"], ln));
-            let base = entry.matrix.as_ref().and_then(|m| m.keys().next().cloned());
-            let parsed: Option<BTreeMap<String, Yaml>> = serde_yaml::from_value(mv).ok();
-            let same_key = match (&parsed, &base) {
-                (Some(pm), Some(k)) => pm.len() == 1 && pm.keys().next() == Some(k),
-                _ => false,
-            };
-            if !same_key {
-                diags.push(
-                    path,
-                    l,
-                    format!("stages[{}].profiles.{pname}.matrix", entry.id),
-                    "a profile's matrix must sweep the stage's own matrix key",
-                    match base {
-                        Some(k) => format!("write `matrix: {{ {k}: [..] }}` (the key of the stage's `matrix:`)"),
-                        None => "declare `matrix:` on the stage first; a profile only changes its values".to_string(),
-                    },
-                );
-                profile_matrix_bad = true;
+        match super::profile_matrix::profile_matrix(&mut entry, profile, &text, line, path, &mut diags) {
+            super::profile_matrix::ProfileMatrix::Bad => {
+                rejected.insert(entry.id.clone());
                 continue;
             }
-            // The right key: its values must be a list, as the stage's own.
-            let (k, v) = parsed.into_iter().flatten().next().expect("one key, checked above");
-            match serde_yaml::from_value::<Vec<Yaml>>(v) {
-                Ok(values) => {
-                    if pname == profile {
-                        absent_here = values.is_empty();
-                        if absent_here {
-                            let lk = line
-                                .and_then(|ln| locate(&text, &["profiles", pname, "matrix", &k], ln))
-                                .or(l);
-                            absent.insert(
-                                entry.id.clone(),
-                                (lk, format!("stages[{}].profiles.{pname}.matrix.{k}", entry.id)),
-                            );
-                        }
-                        entry.matrix = Some(BTreeMap::from([(k, values)]));
-                    }
-                }
-                Err(_) => {
-                    let lk = line
-                        .and_then(|ln| locate(&text, &["profiles", pname, "matrix", &k], ln))
-                        .or(l);
-                    diags.push(
-                        path,
-                        lk,
-                        format!("stages[{}].profiles.{pname}.matrix.{k}", entry.id),
-                        format!("the values of `{k}` must be a list"),
-                        format!("write `{k}: [v1, v2, ..]` (one stage per value)"),
-                    );
-                    profile_matrix_bad = true;
-                }
+            super::profile_matrix::ProfileMatrix::Absent(at, key) => {
+                absent.insert(entry.id.clone(), (at, key));
+                continue;
             }
-        }
-        if profile_matrix_bad {
-            rejected.insert(entry.id.clone());
-            continue;
-        }
-        if absent_here {
-            continue;
+            super::profile_matrix::ProfileMatrix::Resolved => {}
         }
         for p in entry.profiles.keys() {
             if !PROFILES.contains(&p.as_str()) {

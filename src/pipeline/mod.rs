@@ -13,6 +13,7 @@ pub mod keys;
 pub mod load;
 pub mod order;
 pub mod plan;
+mod profile_matrix;
 pub mod profiles;
 pub mod project;
 pub mod publish;
