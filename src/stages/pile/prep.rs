@@ -274,7 +274,7 @@ pub const PREP_KIND: Kind = Kind {
                 columns: &["r_m", "x_m", "y_m"],
             },
         ],
-        measurements: &["packing", "slope"],
+        measurements: &["height", "packing", "slope"],
         texts: &[],
     },
     reads: None,
