@@ -83,6 +83,14 @@ pub struct Judged {
     pub not_comparable: Vec<NotComparable>,
 }
 
+impl Judged {
+    /// Judged on a scene this profile runs too small to compare with the chapter (and it
+    /// ran: a row not run carries no verdict to qualify).
+    pub fn not_comparable_here(&self) -> bool {
+        !self.not_comparable.is_empty() && !self.values.is_empty()
+    }
+}
+
 /// A reduced scene a row is judged on (the ledger's `reduced`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NotComparable {

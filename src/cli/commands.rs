@@ -253,10 +253,10 @@ pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path)
             ours,
             j.verdict.name(),
             if j.calibrated.is_empty() { "" } else { " (calibrated)" },
-            if j.not_comparable.is_empty() || j.values.is_empty() {
-                ""
-            } else {
+            if j.not_comparable_here() {
                 " [not comparable with the chapter at this size]"
+            } else {
+                ""
             }
         );
     }

@@ -103,7 +103,7 @@ fn verdict_cell(j: &Judged) -> String {
 
 /// The mark of a row whose scene this profile runs too small to compare with the chapter.
 fn not_comparable(j: &Judged) -> String {
-    if j.not_comparable.is_empty() || j.values.is_empty() {
+    if !j.not_comparable_here() {
         return String::new();
     }
     format!(
@@ -131,10 +131,7 @@ fn reduced_paragraph(j: &[Judged], profile: &str) -> String {
     if seen.is_empty() {
         return String::new();
     }
-    let rows = j
-        .iter()
-        .filter(|x| !x.values.is_empty() && !x.not_comparable.is_empty())
-        .count();
+    let rows = j.iter().filter(|x| x.not_comparable_here()).count();
     let mut h = format!(
         "<div id=\"reduced\" style=\"border-left:4px solid #b00020;padding:2px 10px;margin:8px 0\"><p><b>Not the chapter's verdicts.</b> The {p} profile runs these scenes too small to set against the chapter; the {rows} rows judged on them (marked <i>not comparable at this size</i>) test the pipeline, not the chapter. The paper profile runs them at the chapter's size (the column <i>ours (paper)</i>).</p><ul>",
         p = esc(profile)
@@ -277,10 +274,7 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
                 "<span class=\"{}\">{}</span>{}",
                 class(hl.verdict),
                 hl.verdict.name(),
-                if parts
-                    .iter()
-                    .any(|p| !p.not_comparable.is_empty() && !p.values.is_empty())
-                {
+                if parts.iter().any(|p| p.not_comparable_here()) {
                     "<br><small class=\"reduced\"><b>not comparable at this size</b></small>"
                 } else {
                     ""
@@ -294,11 +288,7 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
     let c = counts(j);
     let get = |k: Kind, v: Verdict| c.get(&(k, v)).copied().unwrap_or(0);
     let cal = |k: Kind| j.iter().filter(|x| x.row.kind == k && !x.calibrated.is_empty()).count();
-    let reduced = |k: Kind| {
-        j.iter()
-            .filter(|x| x.row.kind == k && !x.not_comparable.is_empty() && !x.values.is_empty())
-            .count()
-    };
+    let reduced = |k: Kind| j.iter().filter(|x| x.row.kind == k && x.not_comparable_here()).count();
     h.push_str("<h2 id=\"counts\">Every claim of the ledger, counted by kind</h2><table><tr><th>kind</th><th>rows</th><th>reproduced</th><th>missed</th><th>not resolved</th><th>not run</th><th>of which rest on a tuned value (calibrated)</th><th>of which judged on a scene too small to compare with the chapter</th></tr>");
     for (k, what) in [
         (Kind::Quantitative, "quantitative (a number of the chapter)"),

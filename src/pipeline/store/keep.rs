@@ -145,7 +145,8 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
         .filter_map(|(id, c)| c.describe().map(|d| (id, d)))
         .collect();
     out.not_current = not_current.keys().cloned().collect();
-    let judged = super::fresh_judged(p, st);
+    // The status above already verified every kept file: judge without a second pass.
+    let judged = super::judged_without(p, st, &not_current.keys().cloned().collect());
     if let Some(j) = &judged {
         crate::report::ledger::write_files(st, j)?;
     }

@@ -234,6 +234,16 @@ pub fn fresh_judged(p: &Pipeline, dir: &Path) -> Option<Vec<crate::claims::judge
         .filter(|(_, s)| *s != Committed::Fresh)
         .map(|(id, _)| id)
         .collect();
+    judged_without(p, dir, &not_fresh)
+}
+
+/// The ledger judged on `dir`'s results, every row reading a stage of `not_fresh` as not
+/// run (the committed result is not current).
+pub(super) fn judged_without(
+    p: &Pipeline,
+    dir: &Path,
+    not_fresh: &HashSet<String>,
+) -> Option<Vec<crate::claims::judge::Judged>> {
     let mut j = crate::claims::evaluate_dir(p, dir)?;
     for r in &mut j {
         if r.row.measure.all_stages().iter().any(|s| not_fresh.contains(*s)) {
