@@ -395,3 +395,30 @@ fn rows_on_reduced_quick_scenes_are_marked_and_paper_rows_are_not() {
         assert!(!marked("col-modulus"), "{profile}");
     }
 }
+
+#[test]
+fn the_calibration_and_the_settings_study_measure_the_runout_the_sweeps_report() {
+    // calib-runout-short/-tall are checks of the run-out the column sweeps report: the grid
+    // points (and wp-dem-column, which picks the sweeps' contact setting) must find the front
+    // by the same D01 gap and stop by the same rule as col-dem. Fails on the tree where the
+    // grid linked grains within 0.01 d̄ and stopped on energy alone (sweep: 0.5 d̄).
+    for p in [pipeline("quick"), pipeline("paper")] {
+        let sweep = &p.get("col-dem-a0.4").expect("col-dem-a0.4 in both profiles").params["run"];
+        let same = ["link_gap", "stop", "front", "right_wall_at"];
+        let mut seen = 0;
+        for s in p
+            .stages
+            .iter()
+            .filter(|s| s.kind == "dem-calibration-point" || s.id == "wp-dem-column")
+        {
+            for k in same {
+                assert_eq!(s.params["run"][k], sweep[k], "{}: run.{k} differs from col-dem's", s.id);
+            }
+            seen += 1;
+        }
+        assert!(
+            seen >= 3,
+            "the grid points and wp-dem-column are in the profile ({seen})"
+        );
+    }
+}

@@ -79,9 +79,11 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
         .scalar("youngs_modulus_pa", r.young)
         .scalar("k0", r.k0)
         .scalar("height_m", r.height)
+        .scalar("rest_ke_over_ep", r.rest_ke_over_ep)
+        .scalar("at_rest", if r.at_rest { 1.0 } else { 0.0 })
         .scalar("stiffness_factor", p.stiffness_factor);
     out.claims.push(Claim::rel("youngs-modulus", "E = 1.98e6 N/m², \"initial slope of the stress-strain plot of a uni-axial compression of a laterally confined granular column\" (I12: that slope is M; E = M(1+ν)(1−2ν)/(1−ν))", 1.98e6, r.young, 0.25));
-    out.note(format!("Constrained modulus M = {:.3e} Pa (slope over the first {:.2} % strain), E = {:.3e} Pa with ν = {}; K_0 = {:.3}. Contact stiffness factor {} (the affine estimate of docs/definitions.md I12 scales with k_n).", r.modulus, 100.0 * p.compression.fit_strain, r.young, p.compression.poisson, r.k0, p.stiffness_factor));
+    out.note(format!("Constrained modulus M = {:.3e} Pa (slope over the first {:.2} % strain), E = {:.3e} Pa with ν = {}; K_0 = {:.3}. Contact stiffness factor {} (the affine estimate of docs/definitions.md I12 scales with k_n). The sample {} before the plate moved (E_k/E_p = {:.1e}, limit {:.0e}); each point's stress is its strain interval's mean, and M is a least-squares slope with an intercept.", r.modulus, 100.0 * p.compression.fit_strain, r.young, p.compression.poisson, r.k0, p.stiffness_factor, if r.at_rest { "was at rest" } else { "was NOT at rest" }, r.rest_ke_over_ep, p.compression.rest_ratio));
     let chart = Chart {
         title: ctx
             .caption
@@ -110,10 +112,10 @@ fn run_compress(ctx: &StageCtx) -> anyhow::Result<Output> {
                 format!("fit: slope M = {:.3e} Pa", r.modulus),
                 Style::Dashed,
                 vec![
-                    (0.0, r.curve.first().map(|c| c.stress).unwrap_or(0.0)),
+                    (0.0, r.fit_intercept),
                     (
                         p.compression.fit_strain,
-                        r.curve.first().map(|c| c.stress).unwrap_or(0.0) + r.modulus * p.compression.fit_strain,
+                        r.fit_intercept + r.modulus * p.compression.fit_strain,
                     ),
                 ],
                 2,
@@ -130,7 +132,7 @@ pub const COMPRESS_KIND: Kind = Kind {
     name: "dem-compress",
     source: file!(),
     method: Some(crate::engines::Method::Dem),
-    version: 2,
+    version: 3,
     about: "laterally confined uniaxial compression of a DEM column -> constrained and Young's modulus",
     params: typed::<CompressStageParams>,
     run: run_compress,
@@ -141,7 +143,8 @@ pub const COMPRESS_KIND: Kind = Kind {
     ]),
     outputs: crate::stages::kind::Outputs {
         scalars: &[
-            "constrained_modulus_pa", "height_m", "k0", "stiffness_factor", "youngs_modulus_pa",
+            "at_rest", "constrained_modulus_pa", "height_m", "k0", "rest_ke_over_ep", "stiffness_factor",
+            "youngs_modulus_pa",
         ],
         tables: &[crate::stages::kind::TableDecl {
             name: "table",
