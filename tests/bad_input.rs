@@ -956,6 +956,29 @@ fn empty_profile_matrix_leaves_the_stage_out_of_that_profile() {
     );
 }
 
+/// `--set` applies to the run's profile, so it may name a stage only that profile has.
+/// Before, every other profile was validated with the same overrides, and `run --profile
+/// paper --set col-dem-a8.dem.dt=…` (a = 8 is a paper-only column) was refused with "no
+/// stage `col-dem-a8` (profile `quick`)". A stage no profile of the run has is still refused.
+#[test]
+fn set_may_name_a_stage_only_the_run_profile_has() {
+    let t = TempProject::new(
+        "version: 1\nstages:\n  - id: p\n    kind: psd\n    params: { n: 50 }\n  - id: q\n    kind: psd\n    matrix: { seed: [1, 2] }\n    params: { n: 50 }\n    profiles: { quick: { matrix: { seed: [] } } }\n",
+    );
+    let (code, out, err) = t.cli(&["run", "--profile", "paper", "--dry-run", "--set", "q-seed1.n=60"]);
+    assert_eq!(code, 0, "{out}{err}");
+    // In the quick profile the stage does not exist: refused, naming the override.
+    let (code, out, err) = t.cli(&["run", "--dry-run", "--set", "q-seed1.n=60"]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(
+        err.contains("--set q-seed1.n") && err.contains("no stage `q-seed1`"),
+        "{err}"
+    );
+    let (code, _, err) = t.cli(&["run", "--profile", "paper", "--dry-run", "--set", "zz.n=60"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("no stage `zz`"), "{err}");
+}
+
 /// A profile's matrix with the stage's own key but a value that is not a list
 /// (`profiles: { quick: { matrix: { seed: 3 } } }`) was refused with "a profile's matrix must
 /// sweep the stage's own matrix key", which blamed the key the user got right. It now names

@@ -10,9 +10,9 @@ use super::diag::{Diagnostic, Diagnostics};
 use super::load::load_profile;
 use super::spec::{Override, PROFILES, Pipeline};
 
-/// Load and validate a pipeline for a profile, applying `--set` overrides. Every
-/// profile is validated (a bad value in the `paper` layer is an error of a `quick` run
-/// too), and the same problem is reported once.
+/// Load and validate a pipeline for a profile, applying `--set` overrides to that profile.
+/// Every profile is validated (a bad value in the `paper` layer is an error of a `quick`
+/// run too), and the same problem is reported once.
 pub fn load(path: &Path, profile: &str, sets: &[Override]) -> Result<Pipeline, Diagnostics> {
     let mut diags = Diagnostics::default();
     let root = path.parent().filter(|r| !r.as_os_str().is_empty());
@@ -54,8 +54,10 @@ pub fn load_text(
 ) -> Result<Pipeline, Diagnostics> {
     let main = load_profile(path, text, root, profile, sets);
     let mut all: Vec<Diagnostic> = main.as_ref().err().map(|d| d.0.clone()).unwrap_or_default();
+    // The other profiles are checked as the files write them: `--set` applies to the run's
+    // profile only, and may name a stage that only that profile has (`col-dem-a8` is paper's).
     for other in PROFILES.iter().filter(|p| **p != profile) {
-        if let Err(d) = load_profile(path, text, root, other, sets) {
+        if let Err(d) = load_profile(path, text, root, other, &[]) {
             for mut x in d.0 {
                 if !all.contains(&x) {
                     x.message = format!("{} (profile `{other}`)", x.message);
