@@ -959,7 +959,7 @@ fn empty_profile_matrix_leaves_the_stage_out_of_that_profile() {
 /// `--set` applies to the run's profile, so it may name a stage only that profile has.
 /// Before, every other profile was validated with the same overrides, and `run --profile
 /// paper --set col-dem-a8.dem.dt=…` (a = 8 is a paper-only column) was refused with "no
-/// stage `col-dem-a8` (profile `quick`)". A stage no profile of the run has is still refused.
+/// stage `col-dem-a8` (profile `quick`)". A stage the run's profile lacks is still refused.
 #[test]
 fn set_may_name_a_stage_only_the_run_profile_has() {
     let t = TempProject::new(
