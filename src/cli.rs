@@ -166,6 +166,10 @@ pub enum Cmd {
         /// Largest file kept [MB] (per-particle snapshot tables and fields are larger).
         #[arg(long, default_value_t = 4.0)]
         max_file_mb: f64,
+        /// Keep one on-demand study (a stage declared `on_demand: true`) in
+        /// `results/<stage>/` instead: the on-demand stages it needs, under their own lock.
+        #[arg(long)]
+        stage: Option<String>,
     },
     /// The claims ledger (stages/ledger.yaml) judged on the profile's published results:
     /// one line per claim of the chapter, its value, ours (mean ± spread), the verdict.
@@ -549,8 +553,12 @@ pub fn run_cli(cli: Cli) -> i32 {
             match load(&cli.pipeline, profile.name(), &sets) {
                 Ok(p) => {
                     for (id, f) in status(&p, &proj) {
+                        let on_demand = p.get(&id).is_some_and(|s| s.on_demand);
                         match f {
                             Freshness::Fresh => println!("  fresh    {id}"),
+                            Freshness::Missing if on_demand => {
+                                println!("  -        {id}: on demand (`run --stage {id}`)")
+                            }
                             Freshness::Missing => println!("  missing  {id}"),
                             Freshness::Stale(r) => println!("  stale    {id}: {}", r.join("; ")),
                         }
@@ -563,8 +571,12 @@ pub fn run_cli(cli: Cli) -> i32 {
                 }
             }
         }
-        Cmd::Keep { profile, max_file_mb } => match load(&cli.pipeline, profile.name(), &[]) {
-            Ok(p) => crate::cli::commands::keep(&p, &proj, max_file_mb),
+        Cmd::Keep {
+            profile,
+            max_file_mb,
+            stage,
+        } => match load(&cli.pipeline, profile.name(), &[]) {
+            Ok(p) => crate::cli::commands::keep(&p, &proj, max_file_mb, stage.as_deref()),
             Err(d) => {
                 eprintln!("{d}");
                 2

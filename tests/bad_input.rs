@@ -238,6 +238,19 @@ fn corpus() -> Vec<Case> {
             ]
         ),
         case!("stages not a list", "version: 1\nstages: 3\n", RUN, &[PY, "stages"]),
+        // -- on-demand studies
+        case!(
+            "on_demand that is not a boolean",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n    on_demand: sometimes\n",
+            RUN,
+            &[PY, "on_demand"]
+        ),
+        case!(
+            "keep --stage of a stage that is not on demand",
+            "version: 1\nstages:\n  - id: p\n    kind: psd\n",
+            &["keep", "--profile", "quick", "--stage", "p"],
+            &["keep --stage", "`p` is not an on-demand study", "on_demand: true"]
+        ),
         case!(
             "yaml syntax",
             "version: 1\nstages:\n  - id: p\n    kind: psd\n   params: {\n",

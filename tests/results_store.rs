@@ -15,7 +15,7 @@ fn kept(caps: Caps) -> TempProject {
     let proj = Project::new(t.path());
     let p = load(&t.pipeline(), "paper", &[]).unwrap();
     run(&p, &proj, &opts()).unwrap();
-    let k = store::keep(&p, &proj, caps).unwrap();
+    let k = store::keep(&p, &proj, caps, None).unwrap();
     assert_eq!(k.kept.len(), 5, "{k:?}");
     t
 }
@@ -234,7 +234,7 @@ fn a_rekeep_marks_carried_stale_results_as_not_current() {
     let proj = Project::new(t.path()).with_cache(empty.path());
     let sets = vec![Override::parse("psd-a.seed=3").unwrap()];
     let p2 = load(&t.pipeline(), "paper", &sets).unwrap();
-    let k = store::keep(&p2, &proj, Caps::default()).unwrap();
+    let k = store::keep(&p2, &proj, Caps::default(), None).unwrap();
     assert!(k.kept.is_empty(), "{k:?}");
     assert_eq!(
         sorted(k.not_current.iter().map(String::as_str).collect()),
@@ -257,11 +257,69 @@ fn two_stages_with_one_key_share_one_store_entry() {
     let proj = Project::new(t.path());
     let p = load(&t.pipeline(), "paper", &[]).unwrap();
     run(&p, &proj, &opts()).unwrap();
-    let k = store::keep(&p, &proj, Caps::default()).unwrap();
+    let k = store::keep(&p, &proj, Caps::default(), None).unwrap();
     assert_eq!(k.kept.len(), 6, "{k:?}");
     let dir = store::dir_of(t.path(), "paper");
     let lock = store::read_lock(&dir).unwrap().unwrap();
     assert_eq!(lock.stages["psd-a"].key, lock.stages["psd-a-again"].key);
     assert!(store::verify(&dir, &lock).is_empty());
     assert_eq!(state(&p, &t, "psd-a-again"), Committed::Fresh);
+}
+
+/// SMALL with an on-demand study: a `psd` stage and a figure of it, both `on_demand`.
+fn with_study() -> String {
+    format!(
+        "{SMALL}  - id: study-psd\n    kind: psd\n    params: {{ n: 120, seed: 9 }}\n    on_demand: true\n  - id: study\n    kind: psd-figure\n    inputs: {{ psd: study-psd }}\n    on_demand: true\n"
+    )
+}
+
+/// On-demand studies: left out of the whole run and the whole `keep`; run when named; kept
+/// by `keep --stage` in `results/<study>/` under their own lock, which serves and is
+/// checked as `results/<profile>/` is; a stage that is not on demand is refused there.
+#[test]
+fn an_on_demand_study_runs_when_named_and_is_kept_apart() {
+    let t = TempProject::new(&with_study());
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "quick", &[]).unwrap();
+    let whole = run(&p, &proj, &opts()).unwrap();
+    assert_eq!(sorted(whole.ran()), ["fig-a", "laws", "psd-a", "psd-b", "tab"]);
+    let named = run(
+        &p,
+        &proj,
+        &RunOptions {
+            targets: vec!["study".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
+    assert_eq!(sorted(named.ran()), ["study", "study-psd"]);
+
+    let k = store::keep(&p, &proj, Caps::default(), None).unwrap();
+    assert!(!k.kept.iter().any(|id| id.starts_with("study")), "{k:?}");
+    let k = store::keep(&p, &proj, Caps::default(), Some("study")).unwrap();
+    assert_eq!(
+        sorted(k.kept.iter().map(String::as_str).collect()),
+        ["study", "study-psd"]
+    );
+    let dir = t.path().join("results/study");
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    assert_eq!(lock.profile, "quick");
+    assert!(store::verify(&dir, &lock).is_empty() && dir.join("study.svg").is_file());
+    let dirs: Vec<_> = store::committed_dirs(&p).unwrap().into_iter().map(|d| d.0).collect();
+    assert_eq!(dirs, [store::dir_of(t.path(), "quick"), dir.clone()]);
+    assert!(store::keep(&p, &proj, Caps::default(), Some("psd-a")).is_err());
+
+    // Another machine: the study is served from results/study/, nothing of it reruns.
+    let empty = tempfile::tempdir().unwrap();
+    let proj2 = Project::new(t.path()).with_cache(empty.path());
+    let again = run(
+        &p,
+        &proj2,
+        &RunOptions {
+            targets: vec!["study".into()],
+            ..opts()
+        },
+    )
+    .unwrap();
+    assert!(again.ran().is_empty(), "ran {:?}", again.ran());
 }

@@ -267,36 +267,37 @@ pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path)
     0
 }
 
-/// `status`, second part: the committed results of the profile (`results/<profile>/`),
-/// when there are any. Exit 1 when a committed file does not match its lock.
+/// `status`, second part: the committed results of the profile (`results/<profile>/` and
+/// the studies kept for it), when there are any. Exit 1 when a committed file does not
+/// match its lock.
 pub(crate) fn print_committed(p: &crate::pipeline::Pipeline) -> i32 {
     use crate::pipeline::store::{self, Committed};
-    let dir = store::dir_of(&p.root, &p.profile);
-    let lock = match store::read_lock(&dir) {
-        Ok(Some(l)) => l,
-        Ok(None) => return 0,
+    let dirs = match store::committed_dirs(p) {
+        Ok(d) => d,
         Err(e) => {
             eprintln!("error: {e:#}");
             return 2;
         }
     };
-    println!("committed results ({}):", dir.display());
     let mut corrupt = false;
-    let states = store::status(p, &dir, &lock);
-    for (id, st) in &states {
-        match st {
-            Committed::Fresh => println!("  fresh    {id}"),
-            Committed::Stale(r) => println!("  stale    {id}: {}", r.join("; ")),
-            Committed::ChangedCode(r) => println!("  code     {id}: built from changed code: {}", r.join(", ")),
-            Committed::Corrupt(r) => {
-                corrupt = true;
-                println!("  CORRUPT  {id}: {}", r.join("; "));
+    for (dir, lock) in &dirs {
+        println!("committed results ({}):", dir.display());
+        let states = store::status(p, dir, lock);
+        for (id, st) in &states {
+            match st {
+                Committed::Fresh => println!("  fresh    {id}"),
+                Committed::Stale(r) => println!("  stale    {id}: {}", r.join("; ")),
+                Committed::ChangedCode(r) => println!("  code     {id}: built from changed code: {}", r.join(", ")),
+                Committed::Corrupt(r) => {
+                    corrupt = true;
+                    println!("  CORRUPT  {id}: {}", r.join("; "));
+                }
             }
         }
-    }
-    let gone: Vec<&String> = lock.stages.keys().filter(|id| p.get(id).is_none()).collect();
-    for id in gone {
-        println!("  removed  {id}: no longer in the pipeline");
+        let gone: Vec<&String> = lock.stages.keys().filter(|id| p.get(id).is_none()).collect();
+        for id in gone {
+            println!("  removed  {id}: no longer in the pipeline");
+        }
     }
     if corrupt {
         eprintln!(
@@ -308,8 +309,8 @@ pub(crate) fn print_committed(p: &crate::pipeline::Pipeline) -> i32 {
     }
 }
 
-/// `keep`: write `results/<profile>/` from the cache.
-pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f64) -> i32 {
+/// `keep`: write `results/<profile>/` (or `results/<study>/`) from the cache.
+pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f64, study: Option<&str>) -> i32 {
     if !(max_file_mb > 0.0) {
         eprintln!("error: --max-file-mb {max_file_mb}: must be a positive size in MB\n  help: e.g. --max-file-mb 4");
         return 2;
@@ -318,9 +319,15 @@ pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f
         file: (max_file_mb * 1048576.0) as u64,
         ..Default::default()
     };
-    match crate::pipeline::store::keep(p, proj, caps) {
+    let dir = match crate::pipeline::store::keep_dir(p, study) {
+        Ok((d, _)) => d,
+        Err(e) => {
+            eprintln!("error: keep --stage: {e:#}");
+            return 2;
+        }
+    };
+    match crate::pipeline::store::keep(p, proj, caps, study) {
         Ok(k) => {
-            let dir = crate::pipeline::store::dir_of(&p.root, &p.profile);
             println!(
                 "kept {} stage(s) from the cache, carried {} committed, {} with nothing to keep; {:.1} MB in {}",
                 k.kept.len(),

@@ -33,10 +33,11 @@ pub fn members(p: &Pipeline, target: &str) -> Vec<String> {
 }
 
 /// Ids (in topological order) of `targets` and everything they need. Empty targets =
-/// the whole pipeline. Unknown targets are returned as the error.
+/// the whole pipeline but its on-demand studies (`on_demand: true`, run only when named).
+/// Unknown targets are returned as the error.
 pub fn closure(p: &Pipeline, targets: &[String]) -> Result<Vec<String>, Vec<String>> {
     if targets.is_empty() {
-        return Ok(p.stages.iter().map(|s| s.id.clone()).collect());
+        return Ok(p.stages.iter().filter(|s| !s.on_demand).map(|s| s.id.clone()).collect());
     }
     let mut want: BTreeSet<String> = BTreeSet::new();
     let mut unknown = Vec::new();

@@ -107,7 +107,8 @@ pub(crate) fn load_profile(
                     None => (
                         key,
                         inner,
-                        "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix".into(),
+                        "stage keys: id, kind, caption, params_file, params, profiles, inputs, matrix, on_demand"
+                            .into(),
                     ),
                 };
                 let l = line
@@ -537,6 +538,7 @@ pub(crate) fn load_profile(
                 inputs: vec![],
                 line,
                 overrides,
+                on_demand: entry.on_demand,
             });
             pending_inputs.push((idx, None, mval.as_ref().map(|(k, vs, _)| (k.clone(), vs.clone())), line));
         }

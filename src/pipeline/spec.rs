@@ -48,6 +48,8 @@ pub(super) struct StageEntry {
     pub(super) inputs: Option<InputsSpec>,
     #[serde(default)]
     pub(super) matrix: Option<BTreeMap<String, Vec<Yaml>>>,
+    #[serde(default)]
+    pub(super) on_demand: bool,
 }
 
 #[derive(Deserialize)]
@@ -138,6 +140,9 @@ pub struct Stage {
     /// `--set` overrides applied to this stage or to any stage upstream of it
     /// (`STAGE.KEY=VALUE`).
     pub overrides: Vec<String>,
+    /// Run only when named (`--stage`) or needed by a named stage: a study that is part of
+    /// neither profile's whole run (`on_demand: true` in pipeline.yaml).
+    pub on_demand: bool,
 }
 
 /// A validated pipeline for one profile.

@@ -116,6 +116,9 @@ pub fn write_index_of(
     atlas: Option<(&str, &str)>,
     not_current: &BTreeMap<String, String>,
 ) -> std::io::Result<()> {
+    // Nothing judged here nor on the paper results (an on-demand study kept in
+    // results/<study>/, or a pipeline without a ledger): no ledger tables, said once.
+    let ledgerless = judged.is_none() && paper.is_none();
     let judged = judged.unwrap_or(&[]);
     let ids: Vec<String> = ids
         .iter()
@@ -338,10 +341,19 @@ pub fn write_index_of(
     );
     let _ = write!(
         h,
-        "<p>{} stages · input and consistency checks (not claims of the chapter): {n_check_pass} ok, {n_check_fail} failed (<a href=\"#checks\">listed at the end</a>) · every ledger row with its numbers: <a href=\"claims.csv\">claims.csv</a></p>",
-        ids.len()
+        "<p>{} stages · input and consistency checks (not claims of the chapter): {n_check_pass} ok, {n_check_fail} failed (<a href=\"#checks\">listed at the end</a>){}</p>",
+        ids.len(),
+        if ledgerless {
+            ""
+        } else {
+            " · every ledger row with its numbers: <a href=\"claims.csv\">claims.csv</a>"
+        }
     );
-    h.push_str(&opening(judged, profile, paper));
+    if ledgerless {
+        h.push_str("<p>No claim of the chapter is judged in this report: the claims ledger is judged on a profile's whole run (<code>granrepro claims</code>), and this directory holds an on-demand study or a pipeline without a ledger.</p>");
+    } else {
+        h.push_str(&opening(judged, profile, paper));
+    }
     h.push_str("<h2 id=\"error-vs-run-time\">Error vs run time</h2>");
     let atlas_id = esc(atlas.map(|a| a.0).unwrap_or("wp-summary"));
     if perr.is_empty() {

@@ -30,11 +30,42 @@ pub struct Kept {
     pub bytes: u64,
 }
 
-/// Write `results/<profile>/` for every stage with a complete cache entry under its current
-/// key; other stages keep their committed files. Built beside the old directory and swapped
-/// in by renames, so a reader never sees half of it.
-pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
-    let dir = dir_of(&p.root, &p.profile);
+/// Where [`keep`] writes and which stages it keeps: the profile's whole run (its stages but
+/// the on-demand studies) in `results/<profile>/`, or one on-demand study (the on-demand
+/// stages it needs) in `results/<study>/`.
+pub fn keep_dir(p: &Pipeline, study: Option<&str>) -> anyhow::Result<(std::path::PathBuf, Vec<String>)> {
+    let Some(study) = study else {
+        let ids = p.stages.iter().filter(|s| !s.on_demand).map(|s| s.id.clone()).collect();
+        return Ok((dir_of(&p.root, &p.profile), ids));
+    };
+    let named = p.stages.iter().find(|s| s.base_id == study || s.id == study);
+    anyhow::ensure!(
+        named.is_some_and(|s| s.on_demand),
+        "`{study}` is not an on-demand study of {} (profile `{}`)\n  help: `keep --stage` takes a stage declared `on_demand: true`; `keep` alone keeps the profile's run",
+        p.path.display(),
+        p.profile
+    );
+    anyhow::ensure!(
+        !crate::pipeline::spec::PROFILES.contains(&study),
+        "the study `{study}` would be kept in results/{study}/, the directory of the profile `{study}`\n  help: rename the study's stage in {}",
+        p.path.display()
+    );
+    let need = crate::pipeline::dag::closure(p, &[study.to_string()])
+        .map_err(|u| anyhow::anyhow!("unknown stage(s): {}", u.join(", ")))?;
+    let ids = need
+        .into_iter()
+        .filter(|id| p.get(id).is_some_and(|s| s.on_demand))
+        .collect();
+    Ok((p.root.join("results").join(study), ids))
+}
+
+/// Write `results/<profile>/` (or `results/<study>/`, see [`keep_dir`]) for every kept stage
+/// with a complete cache entry under its current key; other stages keep their committed
+/// files. Built beside the old directory and swapped in by renames, so a reader never sees
+/// half of it.
+pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> anyhow::Result<Kept> {
+    let (dir, ids) = keep_dir(p, study)?;
+    let wanted: std::collections::BTreeSet<&str> = ids.iter().map(String::as_str).collect();
     let old = read_lock(&dir)?.unwrap_or_default();
     let bad = verify(&dir, &old);
     anyhow::ensure!(
@@ -69,7 +100,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
         stages: BTreeMap::new(),
     };
     let mut out = Kept::default();
-    for s in &p.stages {
+    for s in p.stages.iter().filter(|s| wanted.contains(s.id.as_str())) {
         let (rec, key) = &keys[&s.id];
         let entry = proj.cache.entry_dir(key);
         let complete_here = proj.cache.verify(&entry, key).is_ok() && !entry.join(PARTIAL).exists();
@@ -139,14 +170,17 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps) -> anyhow::Result<Kept> {
     // The ledger and the index, judged on what is kept and fresh: a carried result whose
     // key or code changed since is shown as committed, marked, and judges no claim.
     fsio::write_new(&st.join(LOCK), &serde_json::to_vec_pretty(&lock)?)?;
-    let ids: Vec<String> = p.stages.iter().map(|s| s.id.clone()).collect();
     let not_current: BTreeMap<String, String> = super::status(p, st, &lock)
         .into_iter()
         .filter_map(|(id, c)| c.describe().map(|d| (id, d)))
         .collect();
     out.not_current = not_current.keys().cloned().collect();
-    // The status above already verified every kept file: judge without a second pass.
-    let judged = super::judged_without(p, st, &not_current.keys().cloned().collect());
+    // The status above already verified every kept file: judge without a second pass (a
+    // study holds no claim of the ledger: not judged).
+    let judged = match study {
+        None => super::judged_without(p, st, &not_current.keys().cloned().collect()),
+        Some(_) => None,
+    };
     if let Some(j) = &judged {
         crate::report::ledger::write_files(st, j)?;
     }

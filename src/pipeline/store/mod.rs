@@ -265,11 +265,17 @@ pub fn prepare(
     forced: &HashSet<String>,
     quiet: bool,
 ) -> anyhow::Result<Vec<String>> {
-    let dir = dir_of(&p.root, &p.profile);
-    let Some(lock) = read_lock(&dir)? else {
+    // Every committed directory of this profile: `results/<profile>/` and its kept studies.
+    let mut locks: HashMap<String, (PathBuf, Locked)> = HashMap::new();
+    let dirs = committed_dirs(p)?;
+    if dirs.is_empty() {
         return Ok(vec![]);
-    };
-    let store = dir.join(STORE);
+    }
+    for (dir, lock) in &dirs {
+        for (id, l) in &lock.stages {
+            locks.entry(id.clone()).or_insert_with(|| (dir.join(STORE), l.clone()));
+        }
+    }
     let mut needed_full: HashSet<&str> = HashSet::new();
     let mut imported = Vec::new();
     for id in set.iter().rev() {
@@ -277,11 +283,11 @@ pub fn prepare(
         let here = proj.cache.entry_dir(key);
         // In this cache: None, Some(partial?)
         let main = proj.cache.verify(&here, key).ok().map(|_| here.join(PARTIAL).exists());
-        let committed = lock
-            .stages
+        let entry = locks
             .get(id)
-            .filter(|l| &l.key == key)
-            .filter(|_| Cache::new(&store).verify(&store.join(key), key).is_ok());
+            .filter(|(_, l)| &l.key == key)
+            .filter(|(store, _)| Cache::new(store).verify(&store.join(key), key).is_ok());
+        let committed = entry.map(|(_, l)| l);
         let full = main == Some(false) || committed.is_some_and(|l| l.complete());
         let any = main.is_some() || committed.is_some();
         let must_run = forced.contains(id) || !any || (needed_full.contains(id.as_str()) && !full);
@@ -292,7 +298,7 @@ pub fn prepare(
             for (_, ids) in &p.get(id).expect("planned stage").inputs {
                 needed_full.extend(ids.iter().map(String::as_str));
             }
-        } else if let Some(l) = committed
+        } else if let Some((store, l)) = entry
             && main != Some(false)
             && (main.is_none() || l.complete())
         {
@@ -312,10 +318,43 @@ pub fn prepare(
     }
     imported.reverse();
     if !quiet && !imported.is_empty() {
-        eprintln!("  {} stage(s) served from {}", imported.len(), dir.display());
+        let names: Vec<String> = dirs.iter().map(|(d, _)| d.display().to_string()).collect();
+        eprintln!("  {} stage(s) served from {}", imported.len(), names.join(", "));
     }
     Ok(imported)
 }
 
+/// The committed directories of `p`'s profile with their locks: `results/<profile>/`
+/// first, then every other `results/<name>/` whose lock names this profile (the on-demand
+/// studies kept by `keep --stage`), by name.
+pub fn committed_dirs(p: &Pipeline) -> anyhow::Result<Vec<(PathBuf, Lock)>> {
+    let mut out = Vec::new();
+    let main = dir_of(&p.root, &p.profile);
+    if let Some(l) = read_lock(&main)? {
+        out.push((main.clone(), l));
+    }
+    let mut others: Vec<PathBuf> = std::fs::read_dir(p.root.join("results"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|d| d.is_dir() && *d != main)
+                .collect()
+        })
+        .unwrap_or_default();
+    others.sort();
+    for d in others {
+        let name = d.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if name.starts_with('.') || super::spec::PROFILES.contains(&name) {
+            continue;
+        }
+        if let Some(l) = read_lock(&d)?
+            && l.profile == p.profile
+        {
+            out.push((d, l));
+        }
+    }
+    Ok(out)
+}
+
 mod keep;
-pub use keep::{Kept, keep};
+pub use keep::{Kept, keep, keep_dir};

@@ -9,6 +9,7 @@ pub mod dem_calibration;
 pub mod dem_choice;
 pub mod dem_compress;
 pub mod dem_shear;
+pub mod dem_study;
 
 /// The kinds of this study, registered in [`crate::stages::registry`]. Adding a kind: its
 /// file, its `pub mod` line above and its line here.
@@ -17,6 +18,7 @@ pub const KINDS: &[crate::stages::Kind] = &[
     dem_compress::COMPRESS_KIND,
     dem_calibration::POINT_KIND,
     dem_choice::CALIB_KIND,
+    dem_study::STUDY_KIND,
     cd_shear::SHEAR_KIND,
     cd_shear_figure::SHEAR_FIGURE_KIND,
 ];
