@@ -323,3 +323,38 @@ fn an_on_demand_study_runs_when_named_and_is_kept_apart() {
     .unwrap();
     assert!(again.ran().is_empty(), "ran {:?}", again.ran());
 }
+
+/// A result is locked with the code that computed it, not the code that keeps it: the run
+/// record holds the kind's source closure, and `keep` copies it. Before, `keep` stamped the
+/// keeping binary's hashes, so an entry computed by an older build of changed code was
+/// kept as fresh (seen after a formatting change to a kind's file).
+#[test]
+fn keep_locks_the_code_that_computed_an_entry_not_the_code_that_keeps_it() {
+    let t = TempProject::new(SMALL);
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    let s = run(&p, &proj, &opts()).unwrap();
+    let key = &s.stages.iter().find(|r| r.id == "laws").unwrap().key;
+    let entry = proj.cache.entry_dir(key);
+    // As if `laws` had been computed by a build whose laws.rs differed from this one.
+    let mut rec: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(entry.join("record.json")).unwrap()).unwrap();
+    assert!(
+        rec["sources"]["src/stages/generic/laws.rs"].is_string(),
+        "the run record holds the kind's source closure"
+    );
+    rec["sources"]["src/stages/generic/laws.rs"] = serde_json::json!("0".repeat(64));
+    let bytes = serde_json::to_vec_pretty(&rec).unwrap();
+    std::fs::write(entry.join("record.json"), &bytes).unwrap();
+    let mut man: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(entry.join("manifest.json")).unwrap()).unwrap();
+    man["record"] = serde_json::json!(blake3::hash(&bytes).to_hex().to_string());
+    std::fs::write(entry.join("manifest.json"), serde_json::to_vec_pretty(&man).unwrap()).unwrap();
+
+    store::keep(&p, &proj, Caps::default(), None).unwrap();
+    assert_eq!(
+        state(&p, &t, "laws"),
+        Committed::ChangedCode(vec!["src/stages/generic/laws.rs".into()])
+    );
+    assert_eq!(state(&p, &t, "psd-a"), Committed::Fresh);
+}

@@ -611,6 +611,10 @@ fn run_one(
         "profile": p.profile, "params": rec.params, "inputs": input_hashes,
         "wall_s": wall_s, "threads": ctx.threads, "started_unix_s": started,
         "granrepro_version": env!("CARGO_PKG_VERSION"), "caption": st.caption, "notes": out.notes,
+        // The source files this entry was computed by (the kind's closure in this build):
+        // `keep` locks these, not the keeping binary's, so a result kept by a later build
+        // of changed code is still reported as built from the code that made it.
+        "sources": crate::provenance::sources::closure(kind.source),
     });
     let (_, changed) = proj
         .cache

@@ -111,10 +111,14 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 store: BTreeMap::new(),
                 published: BTreeMap::new(),
                 left_out: BTreeMap::new(),
-                sources: kinds
-                    .get(s.kind.as_str())
-                    .and_then(|k| sources::closure(k.source))
-                    .unwrap_or_default(),
+                // The closure the entry was computed by (its run record); an entry older
+                // than that record field is locked with this build's.
+                sources: built_by(&entry).unwrap_or_else(|| {
+                    kinds
+                        .get(s.kind.as_str())
+                        .and_then(|k| sources::closure(k.source))
+                        .unwrap_or_default()
+                }),
                 wall_s: None,
             };
             store_entry(&entry, &st.join(STORE).join(key), key, caps, &mut l, &mut out, &s.id)?;
@@ -204,6 +208,12 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
         std::fs::remove_dir_all(&trash).map_err(fsio::err_at("cannot remove", &trash))?;
     }
     Ok(out)
+}
+
+/// The source closure recorded by the run that made the cache entry in `dir`.
+fn built_by(dir: &Path) -> Option<BTreeMap<String, String>> {
+    let rec: Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()?;
+    serde_json::from_value(rec.get("sources")?.clone()).ok()
 }
 
 /// Copy a cache entry into the store by the size policy, with a manifest of what it kept.
