@@ -238,6 +238,14 @@ fn corpus() -> Vec<Case> {
             ]
         ),
         case!("stages not a list", "version: 1\nstages: 3\n", RUN, &[PY, "stages"]),
+        // -- a choice (one-key mapping) given two keys: the profile layer names another
+        //    choice with a scalar, which merges into the base's instead of replacing it
+        case!(
+            "a step choice holding two choices after the profile layer",
+            "version: 1\nstages:\n  - id: c\n    kind: column-collapse\n    params: { method: mpm, mpm: { step: { fixed: { dt: 1.0e-6 } } } }\n    profiles: { quick: { mpm: { step: { cfl: true } } } }\n",
+            RUN,
+            &[PY, "stages[c].params.mpm.step", "`cfl`", "`fixed`", "exactly one"]
+        ),
         // -- on-demand studies
         case!(
             "on_demand that is not a boolean",

@@ -49,7 +49,7 @@ fn golden_numbers_quick_profile() {
     copy_dir(&root.join("stages"), &tmp.path().join("stages"));
     let p = load(&tmp.path().join("pipeline.yaml"), "quick", &[]).expect("the shipped pipeline.yaml is valid");
     // The quick profile's whole run: its on-demand studies (`on_demand: true`, e.g. the
-    // hour-long calibration study) are kept with their own lock in results/<study>/, not
+    // 35-minute calibration study) are kept with their own lock in results/<study>/, not
     // pinned here.
     let all: Vec<String> = p.stages.iter().filter(|s| !s.on_demand).map(|s| s.id.clone()).collect();
     // GRANREPRO_CACHE (development only, refused under CI): take the stages from a warm

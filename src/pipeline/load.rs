@@ -509,7 +509,8 @@ pub(crate) fn load_profile(
                         } else {
                             pr.allowed.clone()
                         };
-                        diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), pr.message, help);
+                        let message = with_variants(&json, &pr.key, &pr.message, &pr.allowed);
+                        diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), message, help);
                     }
                     rejected.insert(mid.clone());
                     rejected.insert(entry.id.clone());
@@ -758,5 +759,27 @@ pub(crate) fn load_profile(
             );
             Err(diags)
         }
+    }
+}
+
+/// A choice written as a one-key mapping (`step: { cfl: … }`) that ended up with several
+/// keys — typically a profile layer naming another choice with a scalar, which merges
+/// instead of replacing — is named with the keys it holds, so the message says which
+/// layer's key to fix.
+fn with_variants(params: &serde_json::Value, key: &str, message: &str, allowed: &str) -> String {
+    if !allowed.contains("single key") {
+        return message.to_string();
+    }
+    let at = key
+        .split('.')
+        .filter(|k| !k.is_empty())
+        .try_fold(params, |v, k| v.get(k));
+    match at.and_then(|v| v.as_object()) {
+        Some(m) if m.len() > 1 => format!(
+            "{message}: it holds {} keys ({}), a choice takes exactly one",
+            m.len(),
+            m.keys().map(|k| format!("`{k}`")).collect::<Vec<_>>().join(", ")
+        ),
+        _ => message.to_string(),
     }
 }
