@@ -51,7 +51,7 @@ fn golden_numbers_quick_profile() {
     // The quick profile's whole run: its on-demand studies (`on_demand: true`, e.g. the
     // 35-minute calibration study) are kept with their own lock in results/<study>/, not
     // pinned here.
-    let all: Vec<String> = p.stages.iter().filter(|s| !s.on_demand).map(|s| s.id.clone()).collect();
+    let all: Vec<String> = granrepro::pipeline::dag::closure(&p, &[]).expect("the whole run");
     // GRANREPRO_CACHE (development only, refused under CI): take the stages from a warm
     // shared cache — the numbers of a cache entry are the numbers of a cold run with the
     // same key, so accepting snapshots of a large change need not rerun the whole chapter.

@@ -35,8 +35,8 @@ pub struct Kept {
 /// stages it needs) in `results/<study>/`.
 pub fn keep_dir(p: &Pipeline, study: Option<&str>) -> anyhow::Result<(std::path::PathBuf, Vec<String>)> {
     let Some(study) = study else {
-        let ids = p.stages.iter().filter(|s| !s.on_demand).map(|s| s.id.clone()).collect();
-        return Ok((dir_of(&p.root, &p.profile), ids));
+        let whole = crate::pipeline::dag::closure(p, &[]).expect("the whole run names no unknown stage");
+        return Ok((dir_of(&p.root, &p.profile), whole));
     };
     let named = p.stages.iter().find(|s| s.base_id == study || s.id == study);
     anyhow::ensure!(

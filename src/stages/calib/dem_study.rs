@@ -16,9 +16,9 @@
 //! - `bands`: the two targets' bands across the grid's μ_r span.
 
 use serde::{Deserialize, Serialize};
-use serde_json::Value;
 
-use super::dem_calibration::eq46;
+use super::dem_calibration::{PointParams, eq46};
+use crate::dem::RollingModel;
 use crate::pipeline::context::{InputRef, Output, StageCtx, col_f64, frame};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
@@ -159,7 +159,11 @@ fn extent(samples: &[(f64, bool)]) -> (f64, f64, usize) {
     }
 }
 
-fn read_point(input: &InputRef) -> anyhow::Result<StudyPoint> {
+/// A grid point: its setting from its typed params, its measurements from its scalars.
+/// Returns the point and the critical c_r of its (softened) spring and density.
+fn read_point(input: &InputRef, radii: &[f64]) -> anyhow::Result<(StudyPoint, f64)> {
+    let pp: PointParams = serde_json::from_value(input.params.clone())
+        .map_err(|e| anyhow::anyhow!("input `{}` is not a dem-calibration-point: {e}", input.id))?;
     let sc = input.scalars()?;
     let get = |k: &str| {
         sc.get(k)
@@ -172,29 +176,18 @@ fn read_point(input: &InputRef) -> anyhow::Result<StudyPoint> {
         runouts.push((key.parse::<f64>()?, m, get(&format!("runout_std_a{key}"))?));
     }
     runouts.sort_by(|x, y| x.0.total_cmp(&y.0));
-    let rolling = &input.params["dem"]["rolling"];
-    let enabled = rolling["enabled"].as_bool().unwrap_or(true);
-    Ok(StudyPoint {
-        mu_r: get("mu_r")?,
-        capped: get("model_capped")? > 0.5,
-        cr: if enabled {
-            rolling["cr"].as_f64().unwrap_or(f64::NAN)
-        } else {
-            0.0
-        },
+    let rolling = &pp.dem.rolling;
+    let point = StudyPoint {
+        mu_r: pp.mu_r,
+        capped: pp.model == RollingModel::Capped,
+        cr: if rolling.enabled { rolling.cr } else { 0.0 },
         phi: get("friction_angle_deg")?,
         runouts,
-    })
-}
-
-/// The input's (softened k_r, density), from its params.
-fn spring(input: &InputRef) -> (f64, f64) {
-    let num = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
-    let d = &input.params["dem"];
-    (
-        num(&d["rolling"]["kr"]) * num(&input.params["stiffness_factor"]),
-        num(&d["density"]),
-    )
+    };
+    Ok((
+        point,
+        critical_cr(radii, pp.dem.density, rolling.kr * pp.stiffness_factor),
+    ))
 }
 
 fn run_study(ctx: &StageCtx) -> anyhow::Result<Output> {
@@ -216,9 +209,8 @@ fn run_study(ctx: &StageCtx) -> anyhow::Result<Output> {
     let mut shared: Vec<StudyPoint> = Vec::new();
     let mut crit = Vec::new();
     for input in inputs {
-        let q = read_point(input)?;
-        let (kr, rho) = spring(input);
-        crit.push(critical_cr(&radii, rho, kr));
+        let (q, c) = read_point(input, &radii)?;
+        crit.push(c);
         if q.mu_r == 0.0 {
             shared.push(q);
             continue;
