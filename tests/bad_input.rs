@@ -246,6 +246,27 @@ fn corpus() -> Vec<Case> {
             RUN,
             &[PY, "stages[c].params.mpm.step", "`cfl`", "`fixed`", "exactly one"]
         ),
+        // -- the critical-state shear protocol (issue 24 item 1)
+        case!(
+            "a preparation's pressures outside the protocol's",
+            "version: 1\nstages:\n  - id: s\n    kind: dem-shear\n    params_file: stages/s.yaml\n",
+            &[(
+                "stages/s.yaml",
+                "shear:\n  pressures: [1.0e+3, 4.0e+3]\n  preparations:\n    - { name: loose, friction: 1.0, rolling: true, pressures: [2.0e+3] }\n"
+            )],
+            RUN,
+            &[
+                "s.yaml",
+                "stages[s].params.shear.preparations[0].pressures",
+                "a non-empty subset of shear.pressures"
+            ]
+        ),
+        case!(
+            "a steady window that starts after the end of the shear",
+            "version: 1\nstages:\n  - id: s\n    kind: dem-shear\n    params: { shear: { strain: 2.0, steady_from: 2.5 } }\n",
+            RUN,
+            &[PY, "stages[s].params.shear.steady_from", "[0, shear.strain)"]
+        ),
         // -- on-demand studies
         case!(
             "on_demand that is not a boolean",

@@ -11,12 +11,13 @@
 //! `walls`, `energy` (ledger), `error`, `timers`, `preflight` (stability audit), `world`
 //! (the step as phases), `integrate` (velocity Verlet + implicit rolling dashpot),
 //! `watchdog`; drivers: `prep` (deposition, hex, settle), `column` (collapse +
-//! work-precision), `shear` (C1), `compress` (C2), `pile` (P5), `bench`.
+//! work-precision), `shear` (C1, the calibration grid's short protocol), `critical_state` (C1 by the critical-state protocol, fig4-03), `compress` (C2), `pile` (P5), `bench`.
 
 pub mod bench;
 pub mod column;
 pub mod compress;
 pub mod contact_law;
+pub mod critical_state;
 pub mod energy;
 pub mod error;
 pub mod integrate;

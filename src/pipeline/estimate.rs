@@ -340,8 +340,11 @@ mod tests {
         .unwrap()
     }
 
-    /// The shear test's ratio, worked by hand from stages/shear-dem.yaml and psd-shear.yaml:
-    /// grains 1078/400, steps √(1/0.01) × (2.0/0.6) × Σ_paper P^-½ / Σ_quick P^-½.
+    /// The shear test's ratio, worked by hand from stages/shear-dem.yaml and psd-shear.yaml.
+    /// A run's steps ∝ strain × √(k_n/P) (time ∝ P^-½ at fixed I, Δt ∝ k_n^-½), so at a
+    /// fixed κ = k_n/P every pressure costs the same, √κ × strain. Paper: 8 dense and 3
+    /// loose runs at κ = 1e4, γ = 3, and the fixed-stiffness check at k × 0.1, 1 and 4 kPa;
+    /// quick: 2 dense runs at κ = 1600, γ = 2. Grains 1078/400.
     #[test]
     fn paper_shear_test_scales_by_grains_times_steps() {
         let (p, q, dir) = (shipped("paper"), shipped("quick"), tempfile::tempdir().unwrap());
@@ -354,16 +357,11 @@ mod tests {
         .unwrap();
         let e = estimate(&p, &proj, &["fig4-03".to_string()]).unwrap();
         let row = e.rows.iter().find(|r| r.id == "fig4-03").unwrap();
-        let sum = |pl: &Pipeline| {
-            list(&pl.get("fig4-03").unwrap().params["shear"], "pressures")
-                .iter()
-                .map(|x| x.powf(-0.5))
-                .sum::<f64>()
-        };
         let n = |pl: &Pipeline| num(&pl.get("psd-shear").unwrap().params, "n").unwrap();
-        let strain = |pl: &Pipeline| num(&pl.get("fig4-03").unwrap().params, "shear.strain").unwrap();
-        let sf = |pl: &Pipeline| num(&pl.get("fig4-03").unwrap().params, "stiffness_factor").unwrap();
-        let want = n(&p) / n(&q) * (sf(&p) / sf(&q)).sqrt() * strain(&p) / strain(&q) * sum(&p) / sum(&q);
+        let kn = num(&p.get("fig4-03").unwrap().params, "dem.grain.kn").unwrap();
+        let paper = 11.0 * 3.0 * 1e4f64.sqrt() + 3.0 * ((0.1 * kn / 1e3).sqrt() + (0.1 * kn / 4e3).sqrt());
+        let quick = 2.0 * 2.0 * 1600f64.sqrt();
+        let want = n(&p) / n(&q) * paper / quick;
         assert!(
             want > 10.0,
             "the paper shear test is much bigger than the quick one: {want}"
