@@ -44,17 +44,23 @@ fn small_periodic_shear_reaches_steady_friction() {
     );
 }
 
-/// μ* = τ/σ_n of the quick shear cell (the `psd-shear` grains of the quick profile: 400
-/// disks, β(4, 4) on [0.92, 1.38] mm, width 12 d̄, contacts ×0.01, I = 1e-3) at 250 Pa and
-/// 1 kPa, without rolling resistance, sheared to γ and averaged over its second half.
-fn quick_cell_mu_star(strain: f64) -> (f64, f64) {
+/// `n` radii of the shear cell's PSD (`psd-shear`: β(4, 4) by volume on [0.92, 1.38] mm,
+/// the stage's seed).
+fn quick_psd_radii(n: usize) -> Vec<f64> {
     let g = granrepro::sample::psd::BetaGrading {
         d_min: 0.92e-3,
         d_max: 1.38e-3,
         a: 4.0,
         b: 4.0,
     };
-    let radii: Vec<f64> = g.sample(400, 20150403).iter().map(|d| 0.5 * d).collect();
+    g.sample(n, 20150403).iter().map(|d| 0.5 * d).collect()
+}
+
+/// μ* = τ/σ_n of the quick shear cell (the `psd-shear` grains of the quick profile: 400
+/// disks, β(4, 4) on [0.92, 1.38] mm, width 12 d̄, contacts ×0.01, I = 1e-3) at 250 Pa and
+/// 1 kPa, without rolling resistance, sheared to γ and averaged over its second half.
+fn quick_cell_mu_star(strain: f64) -> (f64, f64) {
+    let radii = quick_psd_radii(400);
     let mut p = DemParams::default().softened(1e-2);
     p.rolling.enabled = false;
     let sp = ShearParams {
@@ -111,13 +117,7 @@ fn protocol_cell(
     strain: f64,
 ) -> granrepro::dem::critical_state::CsResult {
     use granrepro::dem::critical_state::{CriticalStateParams, Preparation, critical_state_test};
-    let g = granrepro::sample::psd::BetaGrading {
-        d_min: 0.92e-3,
-        d_max: 1.38e-3,
-        a: 4.0,
-        b: 4.0,
-    };
-    let radii: Vec<f64> = g.sample(n, 20150403).iter().map(|d| 0.5 * d).collect();
+    let radii = quick_psd_radii(n);
     let sp = CriticalStateParams {
         pressures: pressures.to_vec(),
         strain,
