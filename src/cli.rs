@@ -405,6 +405,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                             match &s.outcome {
                                 Outcome::Cached => println!("  cached     {}", s.id),
                                 Outcome::WouldRun(why) => println!("  would run  {}  ({why})", s.id),
+                                Outcome::Served(from) => println!("  served     {}  ({from})", s.id),
                                 _ => {}
                             }
                         }

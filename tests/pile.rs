@@ -256,3 +256,27 @@ fn frames_do_not_change_the_run_and_carry_the_input_energy() {
         assert_eq!(short.samples[..], plain.samples[..short.samples.len()]);
     }
 }
+
+/// The pile's pour is one layer of the rows its grains fill. 95 equal grains (r = 1 mm,
+/// pitch 2.1 mm) in a 21.2 mm box fill rows of 10 and 9 alternately: 10 rows. The
+/// deposition waits for the fall of its layer's top row, computed from `rows_per_layer`:
+/// the pile stage asks for one layer with `rows_per_layer: 100000`, which the old code
+/// passed through, so the paper pile waited 10.3 s of simulated time (a 100,000-row fall)
+/// instead of 0.5 s. A cap below the rows filled is kept (several layers).
+#[test]
+fn a_pile_pour_is_one_layer_of_the_rows_its_grains_fill() {
+    use granrepro::dem::pour::pour;
+    use granrepro::dem::prep::DepositionParams;
+    let radii = vec![1e-3; 95];
+    let dep = DepositionParams {
+        width: 0.0212,
+        rows_per_layer: 100_000,
+        spacing: 1.05,
+        ..DepositionParams::default()
+    };
+    assert_eq!(pour(&radii, &dep).rows_per_layer, 10);
+    assert_eq!(pour(&radii[..86], &dep).rows_per_layer, 9);
+    let capped = DepositionParams { rows_per_layer: 5, ..dep.clone() };
+    assert_eq!(pour(&radii, &capped).rows_per_layer, 5);
+    assert_eq!(pour(&radii, &capped), capped);
+}

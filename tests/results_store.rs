@@ -358,3 +358,59 @@ fn keep_locks_the_code_that_computed_an_entry_not_the_code_that_keeps_it() {
     );
     assert_eq!(state(&p, &t, "psd-a"), Committed::Fresh);
 }
+
+/// The CSV cap applies to results carried from an earlier keep too: a re-keep from an
+/// empty cache under a smaller cap moves each published CSV over it to the lock's left-out
+/// list (hash kept), the lock still verifies, and the index links the table's Parquet in
+/// the store instead. Before, carried files were copied whatever the cap, so lowering it
+/// never shrank what was already committed.
+#[test]
+fn a_rekeep_applies_the_csv_cap_to_carried_results() {
+    let t = kept(Caps::default());
+    let dir = store::dir_of(t.path(), "paper");
+    let csv = dir.join("psd-a.csv");
+    let size = std::fs::metadata(&csv).unwrap().len();
+    assert!(size > 1024, "the test needs psd-a.csv over 1 KB: {size}");
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    let k = store::keep(&p, &proj, Caps { csv: 1024, ..Caps::default() }, None).unwrap();
+    assert!(k.kept.is_empty() && k.carried.len() == 5, "{k:?}");
+    assert!(!csv.exists(), "psd-a.csv ({size} B) is over the 1 KB cap and must be left out");
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    assert!(lock.stages["psd-a"].left_out.contains_key("psd-a.csv"));
+    assert!(!lock.stages["psd-a"].published.contains_key("psd-a.csv"));
+    assert!(store::verify(&dir, &lock).is_empty());
+    assert_eq!(state(&p, &t, "psd-a"), Committed::Fresh);
+    let index = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let key = &lock.stages["psd-a"].key;
+    assert!(index.contains(&format!("store/{key}/table.parquet\">table (Parquet)")), "{index}");
+}
+
+/// A dry run says what a real run would do with the committed results: the stages they
+/// serve, and those their partial entries force to run (with the consumer that needs them).
+/// Before, the dry run looked at the cache only and listed every committed stage as "would
+/// run (never ran)" on a fresh clone.
+#[test]
+fn a_dry_run_reports_what_the_committed_results_serve_and_what_must_run() {
+    use granrepro::pipeline::run::Outcome;
+    let t = kept(Caps { file: 64, csv: 64 });
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let dry = RunOptions {
+        dry_run: true,
+        ..opts()
+    };
+    let outcome = |p: &granrepro::pipeline::Pipeline, id: &str| {
+        run(p, &proj, &dry).unwrap().stages.into_iter().find(|s| s.id == id).unwrap().outcome
+    };
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    assert!(matches!(outcome(&p, "psd-b"), Outcome::Served(ref w) if w.contains("store")));
+    assert!(matches!(outcome(&p, "psd-a"), Outcome::Served(ref w) if w.contains("partial")));
+    let sets = vec![Override::parse("fig-a.curve_points=50").unwrap()];
+    let p2 = load(&t.pipeline(), "paper", &sets).unwrap();
+    assert!(matches!(outcome(&p2, "psd-a"), Outcome::WouldRun(ref w) if w.contains("fig-a")));
+    // and the dry run changed nothing: the real run still serves psd-b
+    let s = run(&p2, &proj, &opts()).unwrap();
+    assert_eq!(sorted(s.ran()), ["fig-a", "psd-a"]);
+}

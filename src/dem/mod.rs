@@ -25,6 +25,7 @@ pub mod neighbors;
 pub mod params;
 pub(crate) mod passes;
 pub mod pile;
+pub mod pour;
 pub mod preflight;
 pub mod prep;
 pub mod scratch;

@@ -45,6 +45,7 @@ pub fn plan(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Vec<Plan
             let (cached, why) = match s.outcome {
                 Outcome::Cached => (true, None),
                 Outcome::WouldRun(w) => (false, Some(w)),
+                Outcome::Served(from) => (true, Some(format!("served {from}"))),
                 other => (false, Some(format!("{other:?}"))),
             };
             Planned {

@@ -52,6 +52,8 @@ pub enum Outcome {
     },
     /// Would run (dry run), with the reason.
     WouldRun(String),
+    /// Would be served from the committed results (dry run), with where from.
+    Served(String),
     /// Failed with this message.
     Failed(String),
     /// Not run because an input failed.
@@ -176,10 +178,24 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
 
     let mut summary = RunSummary::default();
     if opts.dry_run {
+        // what the committed results would serve, and what their partial entries force to
+        // run (exactly as `prepare` decides before a real run)
+        let serving = super::store::plan_serving(p, proj, &set, &keys, &forced)
+            .map_err(|e| RunError::BadInput(format!("the committed results: {e:#}")))?;
         for id in &set {
             let key = keys[id].1.clone();
             let outcome = if forced.contains(id) {
                 Outcome::WouldRun("forced".into())
+            } else if let Some(super::store::Serving::Run(why)) = serving.get(id)
+                && why != "never ran"
+            {
+                Outcome::WouldRun(why.clone())
+            } else if let Some(super::store::Serving::Import { store, left_out }) = serving.get(id) {
+                Outcome::Served(if left_out.is_empty() {
+                    format!("from {}", store.display())
+                } else {
+                    format!("from {}, partial: {} left out", store.display(), left_out.join(", "))
+                })
             } else if proj.cache.verify(&proj.cache.entry_dir(&key), &key).is_ok() {
                 Outcome::Cached
             } else {
@@ -476,7 +492,7 @@ fn publish_all(
                     );
                 }
             }
-            Outcome::WouldRun(_) => {}
+            Outcome::WouldRun(_) | Outcome::Served(_) => {}
         }
     }
     if dir.is_dir() {

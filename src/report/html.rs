@@ -276,7 +276,7 @@ pub fn write_index_of(
         }
         let _ = write!(
             body,
-            "<figcaption><p>{}</p><p><small>profile {} · kind {} v{} · wall {} s{} · <a href=\"{i}.csv\">table (CSV)</a> · <a href=\"{i}.json\">scalars</a> · <a href=\"{i}.record.json\">run record</a></small></p>",
+            "<figcaption><p>{}</p><p><small>profile {} · kind {} v{} · wall {} s{} · {} · <a href=\"{i}.json\">scalars</a> · <a href=\"{i}.record.json\">run record</a></small></p>",
             esc(caption),
             esc(profile),
             esc(rec.get("kind").and_then(|v| v.as_str()).unwrap_or("?")),
@@ -290,6 +290,7 @@ pub fn write_index_of(
             } else {
                 format!(" · {} (wp-summary)", esc(&err_note.join("; ")))
             },
+            table_link(dir, id, &rec),
             i = esc(id)
         );
         if let Some(notes) = rec.get("notes").and_then(|n| n.as_array()) {
@@ -393,6 +394,24 @@ pub fn write_index_of(
     }
     h.push_str("</body></html>\n");
     crate::pipeline::cache::write_atomic(&dir.join("index.html"), h.as_bytes())
+}
+
+/// Where a stage's main table is: its CSV when published beside the index, else (a
+/// committed store, whose large tables are kept once, as Parquet) the store entry's
+/// `table.parquet`, else nothing.
+fn table_link(dir: &Path, id: &str, rec: &Value) -> String {
+    if dir.join(format!("{id}.csv")).exists() {
+        return format!("<a href=\"{i}.csv\">table (CSV)</a>", i = esc(id));
+    }
+    let in_store = rec
+        .get("key")
+        .and_then(|k| k.as_str())
+        .map(|k| format!("store/{k}/table.parquet"))
+        .filter(|f| dir.join(f).exists());
+    match in_store {
+        Some(f) => format!("<a href=\"{}\">table (Parquet)</a>", esc(&f)),
+        None => "no table".to_string(),
+    }
 }
 
 /// The ledger rows of section `k`, closing it.

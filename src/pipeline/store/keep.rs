@@ -161,10 +161,21 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     copy(&from.join(n), &to.join(n), &mut out.bytes)?;
                 }
             }
-            for n in l.published.keys() {
-                copy(&dir.join(n), &st.join(n), &mut out.bytes)?;
+            // The size policy applies to what is carried too: a published CSV over the
+            // cap (kept under an older, larger cap) moves to the left-out list, hash kept.
+            let mut l = l.clone();
+            let published = std::mem::take(&mut l.published);
+            for (n, h) in published {
+                let size = std::fs::metadata(dir.join(&n)).map(|m| m.len()).unwrap_or(0);
+                if n.ends_with(".csv") && size > caps.csv {
+                    out.left_out.push((s.id.clone(), n.clone(), size));
+                    l.left_out.insert(n, h);
+                    continue;
+                }
+                copy(&dir.join(&n), &st.join(&n), &mut out.bytes)?;
+                l.published.insert(n, h);
             }
-            lock.stages.insert(s.id.clone(), l.clone());
+            lock.stages.insert(s.id.clone(), l);
             out.carried.push(s.id.clone());
         } else {
             out.missing.push(s.id.clone());

@@ -3,7 +3,8 @@
 //!
 //! **Layout** (for profile `P`, `R = results/P`):
 //! - `R/index.html`, `R/claims.json`, and each kept stage's published files as plain files
-//!   (`X.json`, `X.svg`, `X-NAME.svg`, `X.record.json`, and `X.csv` for small tables only);
+//!   (`X.json`, `X.svg`, `X-NAME.svg`, `X.record.json`, and `X.csv` for small tables only,
+//!   ≤ [`Caps::csv`]: a time series is kept once, as the store's Parquet);
 //! - `R/store/<key>/`: the stage's cache entry as downstream stages read it — `result.json`,
 //!   `record.json`, its Parquet tables and figures — with a `manifest.json` that lists only
 //!   what was kept;
@@ -98,7 +99,7 @@ impl Default for Caps {
     fn default() -> Caps {
         Caps {
             file: 4 << 20,
-            csv: 256 << 10,
+            csv: 64 << 10,
         }
     }
 }
@@ -255,29 +256,43 @@ pub(super) fn judged_without(
     Some(j)
 }
 
-/// Before a run: serve what the committed store holds (see the module doc). Returns the ids
-/// imported from it.
-pub fn prepare(
+/// What the second cache decides for one planned stage ([`plan_serving`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Serving {
+    /// Served from the committed store (`partial`: some tables were left out of it).
+    Import {
+        /// The committed store directory (`results/<…>/store`).
+        store: PathBuf,
+        /// Entry files left out of the store (a partial entry).
+        left_out: Vec<String>,
+    },
+    /// Must run: why (forced, no entry anywhere, or a consumer that runs needs tables the
+    /// committed entry left out).
+    Run(String),
+    /// This cache's own entry serves it.
+    Cached,
+}
+
+/// The second cache's decision for every planned stage (`set`, in topological order),
+/// without touching anything: the dry run reports it, [`prepare`] carries it out. A stage
+/// must run when it is forced, has no entry anywhere, or is an input of a stage that runs
+/// while only a partial entry of it exists (the consumer may read what was left out).
+pub fn plan_serving(
     p: &Pipeline,
     proj: &Project,
     set: &[String],
     keys: &HashMap<String, (KeyRecord, String)>,
     forced: &HashSet<String>,
-    quiet: bool,
-) -> anyhow::Result<Vec<String>> {
+) -> anyhow::Result<HashMap<String, Serving>> {
     // Every committed directory of this profile: `results/<profile>/` and its kept studies.
     let mut locks: HashMap<String, (PathBuf, Locked)> = HashMap::new();
-    let dirs = committed_dirs(p)?;
-    if dirs.is_empty() {
-        return Ok(vec![]);
-    }
-    for (dir, lock) in &dirs {
+    for (dir, lock) in &committed_dirs(p)? {
         for (id, l) in &lock.stages {
             locks.entry(id.clone()).or_insert_with(|| (dir.join(STORE), l.clone()));
         }
     }
-    let mut needed_full: HashSet<&str> = HashSet::new();
-    let mut imported = Vec::new();
+    let mut needed_full: HashMap<&str, &str> = HashMap::new();
+    let mut out = HashMap::new();
     for id in set.iter().rev() {
         let key = &keys[id].1;
         let here = proj.cache.entry_dir(key);
@@ -290,35 +305,82 @@ pub fn prepare(
         let committed = entry.map(|(_, l)| l);
         let full = main == Some(false) || committed.is_some_and(|l| l.complete());
         let any = main.is_some() || committed.is_some();
-        let must_run = forced.contains(id) || !any || (needed_full.contains(id.as_str()) && !full);
-        if must_run {
-            if main == Some(true) {
-                proj.cache.remove(key)?;
-            }
+        let why = if forced.contains(id) {
+            Some("forced".to_string())
+        } else if !any {
+            Some("never ran".to_string())
+        } else {
+            needed_full
+                .get(id.as_str())
+                .filter(|_| !full)
+                .map(|c| format!("its committed entry left tables out, and {c}, which reads it, runs"))
+        };
+        let decision = if let Some(why) = why {
             for (_, ids) in &p.get(id).expect("planned stage").inputs {
-                needed_full.extend(ids.iter().map(String::as_str));
+                for i in ids {
+                    needed_full.entry(i.as_str()).or_insert(id.as_str());
+                }
             }
+            Serving::Run(why)
         } else if let Some((store, l)) = entry
             && main != Some(false)
             && (main.is_none() || l.complete())
         {
-            if main.is_some() {
-                proj.cache.remove(key)?;
+            Serving::Import {
+                store: store.clone(),
+                left_out: l.left_out.keys().filter_map(|n| n.strip_prefix("store/")).map(String::from).collect(),
             }
-            let left: Vec<&str> = l.left_out.keys().filter_map(|n| n.strip_prefix("store/")).collect();
-            let marker = serde_json::to_vec(&left)?;
-            let extra: Vec<(&str, &[u8])> = if left.is_empty() {
-                vec![]
-            } else {
-                vec![(PARTIAL, marker.as_slice())]
-            };
-            proj.cache.import(key, &store.join(key), &extra)?;
-            imported.push(id.clone());
+        } else {
+            Serving::Cached
+        };
+        out.insert(id.clone(), decision);
+    }
+    Ok(out)
+}
+
+/// Before a run: serve what the committed store holds (see the module doc), as
+/// [`plan_serving`] decides. Returns the ids imported from it.
+pub fn prepare(
+    p: &Pipeline,
+    proj: &Project,
+    set: &[String],
+    keys: &HashMap<String, (KeyRecord, String)>,
+    forced: &HashSet<String>,
+    quiet: bool,
+) -> anyhow::Result<Vec<String>> {
+    if committed_dirs(p)?.is_empty() {
+        return Ok(vec![]);
+    }
+    let plan = plan_serving(p, proj, set, keys, forced)?;
+    let mut imported = Vec::new();
+    for id in set {
+        let key = &keys[id].1;
+        let here = proj.cache.entry_dir(key);
+        let main = proj.cache.verify(&here, key).ok().map(|_| here.join(PARTIAL).exists());
+        match &plan[id] {
+            Serving::Run(_) => {
+                if main == Some(true) {
+                    proj.cache.remove(key)?;
+                }
+            }
+            Serving::Import { store, left_out } => {
+                if main.is_some() {
+                    proj.cache.remove(key)?;
+                }
+                let marker = serde_json::to_vec(left_out)?;
+                let extra: Vec<(&str, &[u8])> = if left_out.is_empty() {
+                    vec![]
+                } else {
+                    vec![(PARTIAL, marker.as_slice())]
+                };
+                proj.cache.import(key, &store.join(key), &extra)?;
+                imported.push(id.clone());
+            }
+            Serving::Cached => {}
         }
     }
-    imported.reverse();
     if !quiet && !imported.is_empty() {
-        let names: Vec<String> = dirs.iter().map(|(d, _)| d.display().to_string()).collect();
+        let names: Vec<String> = committed_dirs(p)?.iter().map(|(d, _)| d.display().to_string()).collect();
         eprintln!("  {} stage(s) served from {}", imported.len(), names.join(", "));
     }
     Ok(imported)

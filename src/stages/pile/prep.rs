@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use super::common::{check_dem_pile, explain_pile};
 use crate::analysis::pile::{D_NORM, envelope_packing, slope_deg, surface_profile};
 use crate::dem::pile::{PileParams, prepare_pile};
+use crate::dem::pour::pour;
 use crate::dem::{DemParams, State};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64, frame};
 use crate::report::plot::footer;
@@ -130,7 +131,12 @@ fn run_prep(ctx: &StageCtx) -> anyhow::Result<Output> {
         radii.truncate(p.grains);
     }
     let clock = std::time::Instant::now();
-    let pile = prepare_pile(&radii, &run, &p.pile)?;
+    // one layer of the rows the grains fill (crate::dem::pour: the deposition's wait)
+    let pp = PileParams {
+        deposition: pour(&radii, &p.pile.deposition),
+        ..p.pile.clone()
+    };
+    let pile = prepare_pile(&radii, &run, &pp)?;
     let wall = clock.elapsed().as_secs_f64();
     let s = &pile.state;
     let d = D_NORM;
@@ -252,7 +258,7 @@ pub const PREP_KIND: Kind = Kind {
     name: "dem-pile-prep",
     source: file!(),
     method: Some(crate::engines::Method::Dem),
-    version: 4,
+    version: 5,
     about: "fig4-23: granular pile poured in a box whose right wall is then shifted; relaxed to rest",
     params: typed::<PrepParams>,
     run: run_prep,
