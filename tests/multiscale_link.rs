@@ -21,7 +21,8 @@ fn changed(sets: &[&str]) -> BTreeSet<String> {
 }
 
 /// Figures, fits and comparisons drawn from a stage: they change with it by design. A stage
-/// of a drawing kind (`plot`, `snapshot`) is a view whatever its id.
+/// of a drawing kind (`plot`, `snapshot`) or a comparison (`sweep-compare`) is a view
+/// whatever its id.
 fn is_view(id: &str) -> bool {
     static DRAWN: std::sync::OnceLock<BTreeSet<String>> = std::sync::OnceLock::new();
     let drawn = DRAWN.get_or_init(|| {
@@ -29,7 +30,7 @@ fn is_view(id: &str) -> bool {
         let p = load(&root, "quick", &[]).unwrap();
         p.stages
             .iter()
-            .filter(|s| s.kind == "plot" || s.kind == "snapshot")
+            .filter(|s| s.kind == "plot" || s.kind == "snapshot" || s.kind == "sweep-compare")
             .map(|s| s.id.clone())
             .collect()
     });
