@@ -414,3 +414,38 @@ fn a_dry_run_reports_what_the_committed_results_serve_and_what_must_run() {
     let s = run(&p2, &proj, &opts()).unwrap();
     assert_eq!(sorted(s.ran()), ["fig-a", "psd-a"]);
 }
+
+/// A forced re-run that reproduces an entry byte for byte, by code other than the code that
+/// made it, replaces the entry's record of which code built it (what the committed results'
+/// lock reads). Before, the identical entry was kept with its old record, so a result
+/// re-run by the committed code still read "built from changed code".
+#[test]
+fn a_forced_rerun_by_other_code_refreshes_the_record_of_what_built_it() {
+    let t = TempProject::new(SMALL);
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    let s = run(&p, &proj, &opts()).unwrap();
+    let key = s.stages.iter().find(|r| r.id == "psd-a").unwrap().key.clone();
+    let dir = proj.cache.entry_dir(&key);
+    // Another build made this entry: its record names other sources (manifest kept valid).
+    let other = serde_json::json!({ "src/other.rs": "0" });
+    let mut rec: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).unwrap()).unwrap();
+    let ours = rec["sources"].clone();
+    assert!(ours.is_object() && ours != other);
+    rec["sources"] = other.clone();
+    let bytes = serde_json::to_vec_pretty(&rec).unwrap();
+    std::fs::write(dir.join("record.json"), &bytes).unwrap();
+    let mut man: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap();
+    man["record"] = serde_json::Value::String(blake3::hash(&bytes).to_hex().to_string());
+    std::fs::write(dir.join("manifest.json"), serde_json::to_vec_pretty(&man).unwrap()).unwrap();
+    assert!(proj.cache.verify(&dir, &key).is_ok());
+    let forced = RunOptions {
+        force: true,
+        targets: vec!["psd-a".into()],
+        ..opts()
+    };
+    run(&p, &proj, &forced).unwrap();
+    let rec: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).unwrap()).unwrap();
+    assert_eq!(rec["sources"], ours, "the record names the build that re-ran it");
+    assert!(proj.cache.verify(&dir, &key).is_ok());
+}

@@ -426,8 +426,17 @@ impl Cache {
         )?;
         // Only an entry whose artifacts differ is replaced: removing an identical one would
         // pull it from under a concurrent reader for nothing (tests/concurrency.rs races
-        // forced and unforced runs of deterministic stages on one cache).
-        if !changed.is_empty() {
+        // forced and unforced runs of deterministic stages on one cache) — unless the code
+        // that built it changed: a forced re-run by other sources that reproduces the
+        // artifacts byte for byte replaces the record, which says what built the entry
+        // (the committed results' lock reads it), and reports no differing artifact.
+        let rebuilt_by_other_code = replace
+            && changed.is_empty()
+            && std::fs::read(self.entry_dir(key).join("record.json"))
+                .ok()
+                .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+                .is_some_and(|old| old.get("sources") != record.get("sources"));
+        if !changed.is_empty() || rebuilt_by_other_code {
             let _lock = fsio::lock(&self.lock_path(key))?;
             fsio::discard_dir(&self.entry_dir(key))?;
         }
