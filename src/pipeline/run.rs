@@ -186,11 +186,11 @@ pub fn run(p: &Pipeline, proj: &Project, opts: &RunOptions) -> Result<RunSummary
             let key = keys[id].1.clone();
             let outcome = if forced.contains(id) {
                 Outcome::WouldRun("forced".into())
-            } else if let Some(super::store::Serving::Run(why)) = serving.get(id)
+            } else if let Some(super::store::Serving::Run(why, _)) = serving.get(id)
                 && why != "never ran"
             {
                 Outcome::WouldRun(why.clone())
-            } else if let Some(super::store::Serving::Import { store, left_out }) = serving.get(id) {
+            } else if let Some(super::store::Serving::Import { store, left_out, .. }) = serving.get(id) {
                 Outcome::Served(if left_out.is_empty() {
                     format!("from {}", store.display())
                 } else {

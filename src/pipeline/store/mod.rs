@@ -265,10 +265,12 @@ pub enum Serving {
         store: PathBuf,
         /// Entry files left out of the store (a partial entry).
         left_out: Vec<String>,
+        /// This cache holds an entry of the key (partial) to replace.
+        drop_here: bool,
     },
     /// Must run: why (forced, no entry anywhere, or a consumer that runs needs tables the
-    /// committed entry left out).
-    Run(String),
+    /// committed entry left out), and whether this cache's partial entry is to be dropped.
+    Run(String, bool),
     /// This cache's own entry serves it.
     Cached,
 }
@@ -321,7 +323,7 @@ pub fn plan_serving(
                     needed_full.entry(i.as_str()).or_insert(id.as_str());
                 }
             }
-            Serving::Run(why)
+            Serving::Run(why, main == Some(true))
         } else if let Some((store, l)) = entry
             && main != Some(false)
             && (main.is_none() || l.complete())
@@ -329,6 +331,7 @@ pub fn plan_serving(
             Serving::Import {
                 store: store.clone(),
                 left_out: l.left_out.keys().filter_map(|n| n.strip_prefix("store/")).map(String::from).collect(),
+                drop_here: main.is_some(),
             }
         } else {
             Serving::Cached
@@ -355,16 +358,14 @@ pub fn prepare(
     let mut imported = Vec::new();
     for id in set {
         let key = &keys[id].1;
-        let here = proj.cache.entry_dir(key);
-        let main = proj.cache.verify(&here, key).ok().map(|_| here.join(PARTIAL).exists());
         match &plan[id] {
-            Serving::Run(_) => {
-                if main == Some(true) {
+            Serving::Run(_, drop_partial) => {
+                if *drop_partial {
                     proj.cache.remove(key)?;
                 }
             }
-            Serving::Import { store, left_out } => {
-                if main.is_some() {
+            Serving::Import { store, left_out, drop_here } => {
+                if *drop_here {
                     proj.cache.remove(key)?;
                 }
                 let marker = serde_json::to_vec(left_out)?;
