@@ -276,7 +276,10 @@ fn a_pile_pour_is_one_layer_of_the_rows_its_grains_fill() {
     };
     assert_eq!(pour(&radii, &dep).rows_per_layer, 10);
     assert_eq!(pour(&radii[..86], &dep).rows_per_layer, 9);
-    let capped = DepositionParams { rows_per_layer: 5, ..dep.clone() };
+    let capped = DepositionParams {
+        rows_per_layer: 5,
+        ..dep.clone()
+    };
     assert_eq!(pour(&radii, &capped).rows_per_layer, 5);
     assert_eq!(pour(&radii, &capped), capped);
 }

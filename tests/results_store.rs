@@ -374,9 +374,21 @@ fn a_rekeep_applies_the_csv_cap_to_carried_results() {
     let empty = tempfile::tempdir().unwrap();
     let proj = Project::new(t.path()).with_cache(empty.path());
     let p = load(&t.pipeline(), "paper", &[]).unwrap();
-    let k = store::keep(&p, &proj, Caps { csv: 1024, ..Caps::default() }, None).unwrap();
+    let k = store::keep(
+        &p,
+        &proj,
+        Caps {
+            csv: 1024,
+            ..Caps::default()
+        },
+        None,
+    )
+    .unwrap();
     assert!(k.kept.is_empty() && k.carried.len() == 5, "{k:?}");
-    assert!(!csv.exists(), "psd-a.csv ({size} B) is over the 1 KB cap and must be left out");
+    assert!(
+        !csv.exists(),
+        "psd-a.csv ({size} B) is over the 1 KB cap and must be left out"
+    );
     let lock = store::read_lock(&dir).unwrap().unwrap();
     assert!(lock.stages["psd-a"].left_out.contains_key("psd-a.csv"));
     assert!(!lock.stages["psd-a"].published.contains_key("psd-a.csv"));
@@ -384,7 +396,10 @@ fn a_rekeep_applies_the_csv_cap_to_carried_results() {
     assert_eq!(state(&p, &t, "psd-a"), Committed::Fresh);
     let index = std::fs::read_to_string(dir.join("index.html")).unwrap();
     let key = &lock.stages["psd-a"].key;
-    assert!(index.contains(&format!("store/{key}/table.parquet\">table (Parquet)")), "{index}");
+    assert!(
+        index.contains(&format!("store/{key}/table.parquet\">table (Parquet)")),
+        "{index}"
+    );
 }
 
 /// A dry run says what a real run would do with the committed results: the stages they
@@ -402,7 +417,13 @@ fn a_dry_run_reports_what_the_committed_results_serve_and_what_must_run() {
         ..opts()
     };
     let outcome = |p: &granrepro::pipeline::Pipeline, id: &str| {
-        run(p, &proj, &dry).unwrap().stages.into_iter().find(|s| s.id == id).unwrap().outcome
+        run(p, &proj, &dry)
+            .unwrap()
+            .stages
+            .into_iter()
+            .find(|s| s.id == id)
+            .unwrap()
+            .outcome
     };
     let p = load(&t.pipeline(), "paper", &[]).unwrap();
     assert!(matches!(outcome(&p, "psd-b"), Outcome::Served(ref w) if w.contains("store")));
@@ -435,7 +456,8 @@ fn a_forced_rerun_by_other_code_refreshes_the_record_of_what_built_it() {
     rec["sources"] = other.clone();
     let bytes = serde_json::to_vec_pretty(&rec).unwrap();
     std::fs::write(dir.join("record.json"), &bytes).unwrap();
-    let mut man: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap();
+    let mut man: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap();
     man["record"] = serde_json::Value::String(blake3::hash(&bytes).to_hex().to_string());
     std::fs::write(dir.join("manifest.json"), serde_json::to_vec_pretty(&man).unwrap()).unwrap();
     assert!(proj.cache.verify(&dir, &key).is_ok());

@@ -330,7 +330,12 @@ pub fn plan_serving(
         {
             Serving::Import {
                 store: store.clone(),
-                left_out: l.left_out.keys().filter_map(|n| n.strip_prefix("store/")).map(String::from).collect(),
+                left_out: l
+                    .left_out
+                    .keys()
+                    .filter_map(|n| n.strip_prefix("store/"))
+                    .map(String::from)
+                    .collect(),
                 drop_here: main.is_some(),
             }
         } else {
@@ -364,7 +369,11 @@ pub fn prepare(
                     proj.cache.remove(key)?;
                 }
             }
-            Serving::Import { store, left_out, drop_here } => {
+            Serving::Import {
+                store,
+                left_out,
+                drop_here,
+            } => {
                 if *drop_here {
                     proj.cache.remove(key)?;
                 }
@@ -381,7 +390,10 @@ pub fn prepare(
         }
     }
     if !quiet && !imported.is_empty() {
-        let names: Vec<String> = committed_dirs(p)?.iter().map(|(d, _)| d.display().to_string()).collect();
+        let names: Vec<String> = committed_dirs(p)?
+            .iter()
+            .map(|(d, _)| d.display().to_string())
+            .collect();
         eprintln!("  {} stage(s) served from {}", imported.len(), names.join(", "));
     }
     Ok(imported)

@@ -8,6 +8,10 @@
 //! - `cavity` (fig4-42): cavity behind the mass at one instant, uniform against gradient
 //!   (the snapshot runs' `snapshot_metrics`).
 //! - `front` (fig4-43): MPM against DEM front L(t) at equal times (the runs' `series`).
+//! - `ensemble` (issue 28: chaotic outputs as ensemble means with their spread): runs of
+//!   any method whose energies come in perturbed groups (E_0 × {0.99, 1, 1.01}); per group
+//!   and method the mean, standard deviation and extremes of ΔL/L_0 and t_f, so that a
+//!   single-member verdict of fig4-33 can be read against the chaos of the run it rests on.
 
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +33,8 @@ pub enum What {
     Cavity,
     /// Front, MPM vs DEM (roles `mpm`, `dem`).
     Front,
+    /// Spread of perturbed-energy ensembles (role `runs`, any methods).
+    Ensemble,
 }
 
 /// Parameters of a `pile-compare` stage.
@@ -46,7 +52,8 @@ pub struct CompareParams {
     /// Largest relative spread (max − min)/mean of ΔL over the restitution values.
     pub spread_tolerance: f64,
     /// Energies within this relative distance of each other form one ensemble (perturbed
-    /// starts of a chaotic run): the spread is of the ensemble means (`restitution`; 0: none).
+    /// starts of a chaotic run): the spread is of the ensemble means (`restitution`; 0: none;
+    /// `ensemble`: required > 0).
     pub ensemble_rel: f64,
     /// Instant [√(d/g)] (`cavity`).
     pub at: f64,
@@ -120,6 +127,14 @@ impl Validate for CompareParams {
             self.at,
             "an instant >= 0 [√(d/g)]",
         );
+        if self.what == What::Ensemble {
+            c.check(
+                self.ensemble_rel > 0.0,
+                "ensemble_rel",
+                self.ensemble_rel,
+                "> 0 for `what: ensemble` (e.g. 0.015 for energies E_0 × {0.99, 1, 1.01})",
+            );
+        }
         if self.what == What::Front {
             c.check(
                 !self.times.is_empty() && self.times.iter().all(|t| t.is_finite() && *t > 0.0),
@@ -142,7 +157,7 @@ impl Validate for CompareParams {
 pub fn roles(params: &serde_json::Value) -> Vec<(&'static str, crate::pipeline::context::Arity)> {
     use crate::pipeline::context::Arity::*;
     match params.get("what").and_then(|w| w.as_str()).unwrap_or("profiles") {
-        "restitution" => vec![("runs", Many)],
+        "restitution" | "ensemble" => vec![("runs", Many)],
         "front" => vec![("mpm", One), ("dem", One)],
         _ => vec![("gradient", Many), ("uniform", Many)],
     }
@@ -307,6 +322,99 @@ fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
     Ok(())
 }
 
+/// Ensembles of perturbed starts: `energies`, sorted, chained while neighbours are within
+/// `rel` of each other; a run's members of a group are its energies inside the group's
+/// (lowest, highest) range.
+fn ensembles(energies: &[f64], rel: f64) -> Vec<(f64, f64)> {
+    let tol = rel.max(1e-9);
+    let mut sorted = energies.to_vec();
+    sorted.sort_by(|a, b| a.total_cmp(b));
+    let mut groups: Vec<(f64, f64)> = Vec::new();
+    for e in sorted {
+        match groups.last_mut() {
+            Some(g) if e / g.1 - 1.0 <= tol => g.1 = e,
+            _ => groups.push((e, e)),
+        }
+    }
+    groups
+}
+
+/// Mean, sample standard deviation (NaN for one value), least and largest of `v`.
+fn moments(v: &[f64]) -> (f64, f64, f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let sd = if v.len() > 1 {
+        (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        f64::NAN
+    };
+    let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    (mean, sd, lo, hi)
+}
+
+/// The spread of each method's perturbed-energy ensembles (table only; the figure is the
+/// declared plot `pile-ensembles-fig`).
+fn run_ensemble(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
+    let mut rows: Vec<(String, f64, usize, [f64; 4], [f64; 4])> = Vec::new();
+    for inp in ctx.inputs_of("runs") {
+        let r = run_of(inp)?;
+        let m = r.method.to_lowercase();
+        let groups: Vec<(f64, f64)> = ensembles(&r.e, p.ensemble_rel)
+            .into_iter()
+            .filter(|(lo, hi)| hi > lo)
+            .collect();
+        anyhow::ensure!(
+            !groups.is_empty(),
+            "input `{}` has no ensemble: no two of its energies {:?} mgd lie within ensemble_rel = {} of each other",
+            inp.id,
+            r.e,
+            p.ensemble_rel
+        );
+        let (mut worst_dl, mut worst_tf) = (0.0f64, 0.0f64);
+        for (lo, hi) in groups {
+            let inside: Vec<usize> = (0..r.e.len())
+                .filter(|&i| r.e[i] >= lo * (1.0 - 1e-9) && r.e[i] <= hi * (1.0 + 1e-9))
+                .collect();
+            let dl = moments(&inside.iter().map(|&i| r.dl[i]).collect::<Vec<_>>());
+            let tf = moments(&inside.iter().map(|&i| r.tf[i]).collect::<Vec<_>>());
+            let e = (lo * hi).sqrt();
+            out.scalar(&format!("{m}_dl_rel_sd_at_{e:.2}"), dl.1 / dl.0)
+                .scalar(&format!("{m}_tf_rel_sd_at_{e:.2}"), tf.1 / tf.0);
+            worst_dl = worst_dl.max(dl.1 / dl.0);
+            worst_tf = worst_tf.max(tf.1 / tf.0);
+            rows.push((
+                r.method.clone(),
+                e,
+                inside.len(),
+                [dl.0, dl.1, dl.2, dl.3],
+                [tf.0, tf.1, tf.2, tf.3],
+            ));
+        }
+        out.scalar(&format!("{m}_dl_rel_sd_max"), worst_dl)
+            .scalar(&format!("{m}_tf_rel_sd_max"), worst_tf);
+    }
+    type Row = (String, f64, usize, [f64; 4], [f64; 4]);
+    let num = |name: &str, f: &dyn Fn(&Row) -> f64| {
+        polars::prelude::Column::new(name.into(), rows.iter().map(f).collect::<Vec<f64>>())
+    };
+    let df = polars::prelude::DataFrame::new_infer_height(vec![
+        polars::prelude::Column::new("method".into(), rows.iter().map(|r| r.0.clone()).collect::<Vec<_>>()),
+        num("e0_mgd", &|r| r.1),
+        num("members", &|r| r.2 as f64),
+        num("dl_mean", &|r| r.3[0]),
+        num("dl_sd", &|r| r.3[1]),
+        num("dl_min", &|r| r.3[2]),
+        num("dl_max", &|r| r.3[3]),
+        num("tf_mean", &|r| r.4[0]),
+        num("tf_sd", &|r| r.4[1]),
+        num("tf_min", &|r| r.4[2]),
+        num("tf_max", &|r| r.4[3]),
+    ])?;
+    out.table("table", df);
+    Ok(())
+}
+
 fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
     let mut runs = Vec::new();
     for inp in ctx.inputs_of("runs") {
@@ -322,18 +430,7 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         "a restitution comparison needs at least two runs, got {}",
         runs.len()
     );
-    // Ensembles: the first run's energies, sorted, chained while neighbours are within
-    // ensemble_rel; a run's members of a group are its energies inside the group's range.
-    let tol = p.ensemble_rel.max(1e-9);
-    let mut sorted = runs[0].1.e.clone();
-    sorted.sort_by(|a, b| a.total_cmp(b));
-    let mut groups: Vec<(f64, f64)> = Vec::new();
-    for e in sorted {
-        match groups.last_mut() {
-            Some(g) if e / g.1 - 1.0 <= tol => g.1 = e,
-            _ => groups.push((e, e)),
-        }
-    }
+    let groups = ensembles(&runs[0].1.e, p.ensemble_rel);
     let (mut ce, mut cs, mut cm, mut cw, mut cn) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut series = Vec::new();
     for (k, (eps, r)) in runs.iter().enumerate() {
@@ -545,6 +642,7 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
         What::Restitution => run_restitution(ctx, &p, &mut out)?,
         What::Cavity => run_cavity(ctx, &p, &mut out)?,
         What::Front => run_front(ctx, &p, &mut out)?,
+        What::Ensemble => run_ensemble(ctx, &p, &mut out)?,
     }
     Ok(out)
 }
@@ -555,7 +653,7 @@ pub const KIND: Kind = Kind {
     source: file!(),
     method: None,
     version: 4,
-    about: "pile comparisons of §4.4: gradient vs uniform (fig4-44), CD restitution sweep, cavity uniform vs gradient (fig4-42), MPM vs DEM front (fig4-43)",
+    about: "pile comparisons of §4.4: gradient vs uniform (fig4-44), CD restitution sweep, cavity uniform vs gradient (fig4-42), MPM vs DEM front (fig4-43), spread of perturbed-energy ensembles",
     params: typed::<CompareParams>,
     run,
     explain: None,
@@ -563,15 +661,17 @@ pub const KIND: Kind = Kind {
     outputs: crate::stages::kind::Outputs {
         scalars: &[
             "dem_cavity_gradient_d2", "dem_cavity_ratio", "dem_cavity_uniform_d2", "dem_dl_ratio_high",
-            "dem_dl_ratio_low", "dem_tf_ratio", "mpm_cavity_gradient_d2", "mpm_cavity_ratio", "mpm_cavity_uniform_d2",
+            "dem_dl_ratio_low", "dem_tf_ratio", "*_dl_rel_sd_at_*", "*_dl_rel_sd_max", "*_tf_rel_sd_at_*",
+            "*_tf_rel_sd_max", "mpm_cavity_gradient_d2", "mpm_cavity_ratio", "mpm_cavity_uniform_d2",
             "mpm_dl_ratio_high", "mpm_dl_ratio_low", "mpm_tf_ratio", "rel_diff_at_*", "rel_diff_max", "scatter_at_*",
             "scatter_max", "spread_at_*", "spread_max",
         ],
         tables: &[crate::stages::kind::TableDecl {
             name: "table",
             columns: &[
-                "dl_gradient", "dl_mean", "dl_scatter_within_eps", "dl_spread", "dl_uniform", "e0_mgd", "l_dem_d",
-                "l_mpm_d", "members", "method", "rel_diff", "t_over_sqrt_d_g", "tf_gradient", "tf_uniform",
+                "dl_gradient", "dl_max", "dl_mean", "dl_min", "dl_scatter_within_eps", "dl_sd", "dl_spread",
+                "dl_uniform", "e0_mgd", "l_dem_d", "l_mpm_d", "members", "method", "rel_diff", "t_over_sqrt_d_g",
+                "tf_gradient", "tf_max", "tf_mean", "tf_min", "tf_sd", "tf_uniform",
             ],
         }],
         measurements: &[
@@ -596,5 +696,36 @@ mod tests {
         assert_eq!(p, vec![(1.0, 10.0, 5.0), (3.0, 30.0, 3.0)]);
         assert!((geo_mean(&[2.0, 8.0]) - 4.0).abs() < 1e-12);
         assert!(geo_mean(&[]).is_nan());
+    }
+
+    #[test]
+    fn ensembles_chain_perturbed_energies_and_keep_lone_ones_apart() {
+        let g = ensembles(&[51.94, 12.85, 13.11, 12.98, 52.46, 51.42, 100.0], 0.015);
+        assert_eq!(g, vec![(12.85, 13.11), (51.42, 52.46), (100.0, 100.0)]);
+        // 1 % apart is one ensemble at 0.015, two at 0.005
+        assert_eq!(ensembles(&[10.0, 10.1], 0.005).len(), 2);
+    }
+
+    #[test]
+    fn moments_give_the_sample_spread_and_none_for_one_member() {
+        let (m, sd, lo, hi) = moments(&[1.0, 2.0, 3.0]);
+        assert_eq!((m, lo, hi), (2.0, 1.0, 3.0));
+        assert!((sd - 1.0).abs() < 1e-12);
+        assert!(moments(&[4.0]).1.is_nan());
+    }
+
+    #[test]
+    fn an_ensemble_comparison_needs_a_width() {
+        let p = CompareParams {
+            what: What::Ensemble,
+            ..CompareParams::default()
+        };
+        assert!(p.validate().iter().any(|i| format!("{i:?}").contains("ensemble_rel")));
+        let p = CompareParams {
+            what: What::Ensemble,
+            ensemble_rel: 0.015,
+            ..CompareParams::default()
+        };
+        assert!(p.validate().is_empty());
     }
 }
