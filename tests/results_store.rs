@@ -34,9 +34,20 @@ fn state(p: &granrepro::pipeline::Pipeline, t: &TempProject, id: &str) -> Commit
 fn kept_results_serve_an_empty_cache_and_a_changed_param_reruns_exactly_its_dependants() {
     let t = kept(Caps::default());
     let dir = store::dir_of(t.path(), "paper");
-    assert!(dir.join("index.html").is_file() && dir.join("fig-a.svg").is_file());
+    assert!(dir.join("index.html").is_file());
     let lock = store::read_lock(&dir).unwrap().unwrap();
     assert!(store::verify(&dir, &lock).is_empty());
+    // A figure is committed once, in the store; the index shows that copy, and its stamped
+    // published twin is listed (with its hash) as left out.
+    let f = &lock.stages["fig-a"];
+    let shown = format!("store/{}/figure.svg", f.key);
+    assert!(dir.join(&shown).is_file() && !dir.join("fig-a.svg").exists());
+    assert!(f.left_out.contains_key("fig-a.svg"), "{:?}", f.left_out);
+    let index = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    assert!(
+        index.contains(&format!("<img src=\"{shown}\"")),
+        "the index shows the store's figure"
+    );
     // The CSV twin of a table is left out of the store (Parquet is what stages read).
     let l = &lock.stages["psd-a"];
     assert!(l.store.contains_key("table.parquet") && l.left_out.contains_key("store/table.csv"));
@@ -304,7 +315,8 @@ fn an_on_demand_study_runs_when_named_and_is_kept_apart() {
     let dir = t.path().join("results/study");
     let lock = store::read_lock(&dir).unwrap().unwrap();
     assert_eq!(lock.profile, "quick");
-    assert!(store::verify(&dir, &lock).is_empty() && dir.join("study.svg").is_file());
+    let fig = format!("store/{}/figure.svg", lock.stages["study"].key);
+    assert!(store::verify(&dir, &lock).is_empty() && dir.join(fig).is_file());
     let dirs: Vec<_> = store::committed_dirs(&p).unwrap().into_iter().map(|d| d.0).collect();
     assert_eq!(dirs, [store::dir_of(t.path(), "quick"), dir.clone()]);
     assert!(store::keep(&p, &proj, Caps::default(), Some("psd-a")).is_err());

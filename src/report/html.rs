@@ -196,7 +196,8 @@ pub fn write_index_of(
             let _ = write!(body, "<h2 id=\"section-{current}\">{}</h2>", esc(SECTIONS[current]));
         }
         let caption = rec.get("caption").and_then(|c| c.as_str()).unwrap_or("");
-        let has_svg = dir.join(format!("{id}.svg")).exists();
+        let svg = figure_link(dir, id, &rec);
+        let has_svg = svg.is_some();
         // the methods publishing stamped on this stage (read off the graph there)
         let ms: Vec<&str> = if atlas.map(|a| a.0) == Some(id.as_str()) {
             vec![]
@@ -267,10 +268,11 @@ pub fn write_index_of(
                 esc(profile)
             );
         }
-        if has_svg {
+        if let Some(src) = &svg {
             let _ = write!(
                 body,
-                "<img src=\"{i}.svg\" alt=\"{i}\" style=\"max-width:100%\">",
+                "<img src=\"{}\" alt=\"{i}\" style=\"max-width:100%\">",
+                esc(src),
                 i = esc(id)
             );
         }
@@ -399,6 +401,20 @@ pub fn write_index_of(
 /// Where a stage's main table is: its CSV when published beside the index, else (a
 /// committed store, whose large tables are kept once, as Parquet) the store entry's
 /// `table.parquet`, else nothing.
+/// Where the index finds stage `id`'s figure: its published `ID.svg`, or, in committed
+/// results, the store's copy (a figure is committed once; the published twin differs only
+/// by its footer stamp, which the index's table repeats).
+fn figure_link(dir: &Path, id: &str, rec: &Value) -> Option<String> {
+    let published = format!("{id}.svg");
+    if dir.join(&published).exists() {
+        return Some(published);
+    }
+    rec.get("key")
+        .and_then(|k| k.as_str())
+        .map(|k| format!("store/{k}/figure.svg"))
+        .filter(|f| dir.join(f).exists())
+}
+
 fn table_link(dir: &Path, id: &str, rec: &Value) -> String {
     if dir.join(format!("{id}.csv")).exists() {
         return format!("<a href=\"{i}.csv\">table (CSV)</a>", i = esc(id));

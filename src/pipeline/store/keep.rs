@@ -142,6 +142,11 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 if f.ends_with(".parquet") {
                     continue; // the store holds the tables
                 }
+                if store_twin(&s.id, &f).is_some_and(|n| l.store.contains_key(&n)) {
+                    // the store holds the figure: committed once (listed with its hash)
+                    l.left_out.insert(f.clone(), hash_bytes(&bytes));
+                    continue;
+                }
                 if n > csv_cap || bulky(&f) {
                     l.left_out.insert(f.clone(), hash_bytes(&bytes));
                     out.left_out.push((s.id.clone(), f, n));
@@ -169,6 +174,10 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 let size = std::fs::metadata(dir.join(&n)).map(|m| m.len()).unwrap_or(0);
                 if n.ends_with(".csv") && size > caps.csv {
                     out.left_out.push((s.id.clone(), n.clone(), size));
+                    l.left_out.insert(n, h);
+                    continue;
+                }
+                if store_twin(&s.id, &n).is_some_and(|t| l.store.contains_key(&t)) {
                     l.left_out.insert(n, h);
                     continue;
                 }
@@ -276,6 +285,19 @@ fn store_entry(
     }
     l.store.insert("manifest.json".into(), hash_bytes(&bytes));
     Ok(())
+}
+
+/// The store file a published figure of stage `id` is a stamped twin of (`ID.svg` of
+/// `figure.svg`, `ID-NAME.svg` of `NAME.svg`; `crate::pipeline::publish`); None for other
+/// files.
+fn store_twin(id: &str, published: &str) -> Option<String> {
+    if !published.ends_with(".svg") {
+        return None;
+    }
+    if published == format!("{id}.svg") {
+        return Some("figure.svg".into());
+    }
+    published.strip_prefix(&format!("{id}-")).map(String::from)
 }
 
 /// Per-particle snapshot tables and per-instant field files: left out whatever their size
