@@ -144,7 +144,11 @@ fn a_result_built_from_changed_code_names_the_files_and_marks_its_dependants() {
 #[test]
 fn a_partial_entry_serves_its_figure_but_is_recomputed_when_a_consumer_must_run() {
     // A cap that leaves psd-a's table out of the store.
-    let t = kept(Caps { file: 64, csv: 64 });
+    let t = kept(Caps {
+        file: 64,
+        csv: 64,
+        ..Caps::default()
+    });
     let lock = store::read_lock(&store::dir_of(t.path(), "paper")).unwrap().unwrap();
     assert!(!lock.stages["psd-a"].complete());
     let empty = tempfile::tempdir().unwrap();
@@ -421,7 +425,11 @@ fn a_rekeep_applies_the_csv_cap_to_carried_results() {
 #[test]
 fn a_dry_run_reports_what_the_committed_results_serve_and_what_must_run() {
     use granrepro::pipeline::run::Outcome;
-    let t = kept(Caps { file: 64, csv: 64 });
+    let t = kept(Caps {
+        file: 64,
+        csv: 64,
+        ..Caps::default()
+    });
     let empty = tempfile::tempdir().unwrap();
     let proj = Project::new(t.path()).with_cache(empty.path());
     let dry = RunOptions {
@@ -482,4 +490,23 @@ fn a_forced_rerun_by_other_code_refreshes_the_record_of_what_built_it() {
     let rec: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).unwrap()).unwrap();
     assert_eq!(rec["sources"], ours, "the record names the build that re-ran it");
     assert!(proj.cache.verify(&dir, &key).is_ok());
+}
+
+/// A figure over the figure cap is left out of the store (listed with its hash) without
+/// making the entry partial: no stage reads another's figure, so consumers are still served.
+#[test]
+fn a_figure_over_its_cap_leaves_the_entry_complete() {
+    let t = kept(Caps {
+        figure: 64,
+        ..Caps::default()
+    });
+    let dir = store::dir_of(t.path(), "paper");
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    let f = &lock.stages["fig-a"];
+    assert!(
+        f.left_out.contains_key("store/figure.svg") && !f.store.contains_key("figure.svg"),
+        "{f:?}"
+    );
+    assert!(f.complete());
+    assert!(store::verify(&dir, &lock).is_empty());
 }

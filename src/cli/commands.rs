@@ -343,6 +343,14 @@ pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f
                     k.not_current.join(", ")
                 );
             }
+            for (id, f, n, c) in &k.compacted {
+                println!(
+                    "  compact {id}: {f} ({:.1} MB) published as its compact form ({:.1} MB: one path per marker colour); `granrepro run --profile {} --stage {id}` regenerates the original",
+                    *n as f64 / 1048576.0,
+                    *c as f64 / 1048576.0,
+                    p.profile
+                );
+            }
             for (id, f, n) in &k.left_out {
                 println!(
                     "  left out {id}: {f} ({:.1} MB; `granrepro run --profile {} --stage {id}` regenerates it)",

@@ -401,13 +401,16 @@ pub fn write_index_of(
 /// Where a stage's main table is: its CSV when published beside the index, else (a
 /// committed store, whose large tables are kept once, as Parquet) the store entry's
 /// `table.parquet`, else nothing.
-/// Where the index finds stage `id`'s figure: its published `ID.svg`, or, in committed
+/// Where the index finds stage `id`'s figure: its published `ID.svg` (or `ID.compact.svg`),
+/// or, in committed
 /// results, the store's copy (a figure is committed once; the published twin differs only
 /// by its footer stamp, which the index's table repeats).
 fn figure_link(dir: &Path, id: &str, rec: &Value) -> Option<String> {
-    let published = format!("{id}.svg");
-    if dir.join(&published).exists() {
-        return Some(published);
+    // the published figure, or its compact form (a snapshot over the committed size cap)
+    for published in [format!("{id}.svg"), format!("{id}.compact.svg")] {
+        if dir.join(&published).exists() {
+            return Some(published);
+        }
     }
     rec.get("key")
         .and_then(|k| k.as_str())

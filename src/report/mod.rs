@@ -1,4 +1,5 @@
 //! Reports: SVG charts and the HTML index.
+pub mod compact;
 pub mod html;
 pub mod ledger;
 pub mod legend;

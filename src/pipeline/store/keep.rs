@@ -26,6 +26,9 @@ pub struct Kept {
     pub not_current: Vec<String>,
     /// Files left out: (stage, name, bytes).
     pub left_out: Vec<(String, String, u64)>,
+    /// Figures over the cap published in their compact form: (stage, name, bytes, compact
+    /// bytes).
+    pub compacted: Vec<(String, String, u64, u64)>,
     /// Bytes written under `results/<profile>/`.
     pub bytes: u64,
 }
@@ -138,7 +141,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
             for f in sorted_files(&set)? {
                 let bytes = fsio::read(&set.join(&f))?;
                 let n = bytes.len() as u64;
-                let csv_cap = if f.ends_with(".csv") { caps.csv } else { caps.file };
+                let csv_cap = if f.ends_with(".csv") { caps.csv } else { caps.of(&f) };
                 if f.ends_with(".parquet") {
                     continue; // the store holds the tables
                 }
@@ -146,6 +149,17 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     // the store holds the figure: committed once (listed with its hash)
                     l.left_out.insert(f.clone(), hash_bytes(&bytes));
                     continue;
+                }
+                if n > csv_cap && !bulky(&f) {
+                    if let Some((name, small)) = compact_figure(&f, &bytes, caps.file) {
+                        // a snapshot figure over the cap: its compact form instead
+                        l.left_out.insert(f.clone(), hash_bytes(&bytes));
+                        fsio::write_new(&st.join(&name), &small)?;
+                        l.published.insert(name, hash_bytes(&small));
+                        out.bytes += small.len() as u64;
+                        out.compacted.push((s.id.clone(), f, n, small.len() as u64));
+                        continue;
+                    }
                 }
                 if n > csv_cap || bulky(&f) {
                     l.left_out.insert(f.clone(), hash_bytes(&bytes));
@@ -256,9 +270,9 @@ fn store_entry(
     for (name, h) in &files {
         let twin = name.strip_suffix(".csv").map(|b| format!("{b}.parquet"));
         let size = std::fs::metadata(from.join(name)).map(|m| m.len()).unwrap_or(0);
-        if twin.is_some_and(|t| files.contains_key(&t)) || bulky(name) || size > caps.file {
+        if twin.is_some_and(|t| files.contains_key(&t)) || bulky(name) || size > caps.of(name) {
             l.left_out.insert(format!("{STORE}/{name}"), h.clone());
-            if size > caps.file {
+            if size > caps.of(name) {
                 out.left_out.push((id.to_string(), format!("{STORE}/{name}"), size));
             }
             continue;
@@ -285,6 +299,15 @@ fn store_entry(
     }
     l.store.insert("manifest.json".into(), hash_bytes(&bytes));
     Ok(())
+}
+
+/// A published figure over the size cap as its compact form (`ID.compact.svg` for `ID.svg`;
+/// `crate::report::compact`), when that has markers to merge and fits under `cap`.
+fn compact_figure(name: &str, bytes: &[u8], cap: u64) -> Option<(String, Vec<u8>)> {
+    let stem = name.strip_suffix(".svg")?;
+    let text = std::str::from_utf8(bytes).ok()?;
+    let (small, merged) = crate::report::compact::compact_svg(text);
+    (merged > 0 && (small.len() as u64) <= cap).then(|| (format!("{stem}.compact.svg"), small.into_bytes()))
 }
 
 /// The store file a published figure of stage `id` is a stamped twin of (`ID.svg` of

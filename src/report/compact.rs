@@ -1,0 +1,202 @@
+//! A compact form of a particle snapshot figure, for the committed results (issue 28:
+//! "commit snapshot figures in a compact form").
+//!
+//! A snapshot panel draws one marker per grain or material point: a `<circle>` (grains)
+//! or a square `<rect>` (points), each 50–70 bytes, so a 13,000-grain figure of six panels
+//! is 4–5 MB. The compact form draws the same markers as one `<path>` per marker size and
+//! colour, each marker a zero-length segment (`M x y h0`) whose round (circle) or square
+//! (rect) cap of the marker's width paints the same disk or square (SVG 2, §13.5.5: a
+//! zero-length subpath with round or square caps is painted). About 13–15 bytes per marker.
+//!
+//! What changes: within one run of consecutive markers, the markers of one colour are
+//! painted together, so where two markers of different colours overlap, which one is on top
+//! may differ. Everything else (axes, labels, colour bars, the order of markers against
+//! other elements) is copied line for line. The figure's source is unchanged: this is a
+//! derived file, written by `granrepro keep` in place of a published figure over the size
+//! cap, and named as compact in the lock.
+
+use std::collections::HashMap;
+use std::fmt::Write;
+
+/// A marker parsed from one line of plotters' SVG output.
+#[derive(Debug, Clone, PartialEq)]
+struct Marker {
+    /// Centre [px].
+    x: f64,
+    y: f64,
+    /// Cap style: "round" (circle) or "square" (square rect).
+    cap: &'static str,
+    /// Stroke width = diameter or side [px], as written.
+    width: String,
+    /// Fill colour, as written.
+    fill: String,
+}
+
+/// The value of attribute `name` in an element's text.
+fn attr<'a>(line: &'a str, name: &str) -> Option<&'a str> {
+    let key = format!(" {name}=\"");
+    let a = line.find(&key)? + key.len();
+    let b = a + line[a..].find('"')?;
+    Some(&line[a..b])
+}
+
+/// A circle or square rect with a plain fill and no other attributes; None otherwise.
+fn marker(line: &str) -> Option<Marker> {
+    let t = line.trim();
+    if !t.ends_with("/>") || t.contains(" stroke") || t.contains(" opacity") || t.contains(" transform") {
+        return None;
+    }
+    let num = |n: &str| attr(t, n).and_then(|v| v.parse::<f64>().ok());
+    if t.starts_with("<circle ") {
+        let r = num("r")?;
+        return Some(Marker {
+            x: num("cx")?,
+            y: num("cy")?,
+            cap: "round",
+            width: fmt(2.0 * r),
+            fill: attr(t, "fill")?.to_string(),
+        });
+    }
+    if t.starts_with("<rect ") {
+        let (w, h) = (num("width")?, num("height")?);
+        if (w - h).abs() > 1e-9 || w <= 0.0 {
+            return None;
+        }
+        return Some(Marker {
+            x: num("x")? + 0.5 * w,
+            y: num("y")? + 0.5 * h,
+            cap: "square",
+            width: fmt(w),
+            fill: attr(t, "fill")?.to_string(),
+        });
+    }
+    None
+}
+
+/// A coordinate with at most 2 decimals, trailing zeros dropped ("72.1", "95.02", "60").
+fn fmt(v: f64) -> String {
+    let s = format!("{v:.2}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
+/// A length in hundredths of a pixel, shortest form ("85" → ".85", "-3" → "-.03", "200" → "2").
+fn hundredths(v: i64) -> String {
+    let s = fmt(v as f64 / 100.0);
+    if let Some(r) = s.strip_prefix("0.") {
+        format!(".{r}")
+    } else if let Some(r) = s.strip_prefix("-0.") {
+        format!("-.{r}")
+    } else {
+        s
+    }
+}
+
+/// Write one run of consecutive markers as one path per (cap, width, colour), in the order
+/// the groups first appear.
+fn flush(run: &mut Vec<Marker>, out: &mut String) {
+    type Key = (&'static str, String, String);
+    let mut order: Vec<Key> = Vec::new();
+    // per group: the path so far and its last point in hundredths of a pixel
+    let mut paths: HashMap<Key, (String, Option<(i64, i64)>)> = HashMap::new();
+    for m in run.drain(..) {
+        let k = (m.cap, m.width.clone(), m.fill.clone());
+        let (d, last) = paths.entry(k.clone()).or_insert_with(|| {
+            order.push(k);
+            (String::new(), None)
+        });
+        let p = ((m.x * 100.0).round() as i64, (m.y * 100.0).round() as i64);
+        match *last {
+            // the first marker absolute, the others relative to the one before (exact in
+            // hundredths: no drift)
+            None => {
+                let _ = write!(d, "M{} {}h0", hundredths(p.0), hundredths(p.1));
+            }
+            Some(q) => {
+                let dy = hundredths(p.1 - q.1);
+                let sep = if dy.starts_with('-') { "" } else { " " };
+                let _ = write!(d, "m{}{sep}{dy}h0", hundredths(p.0 - q.0));
+            }
+        }
+        *last = Some(p);
+    }
+    for k in order {
+        let _ = writeln!(
+            out,
+            "<path d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"{}\" stroke-linecap=\"{}\"/>",
+            paths[&k].0, k.2, k.1, k.0
+        );
+    }
+}
+
+/// The compact form of an SVG figure, and how many markers it merged (0: nothing to do).
+pub fn compact_svg(text: &str) -> (String, usize) {
+    let mut out = String::with_capacity(text.len() / 3);
+    let mut run: Vec<Marker> = Vec::new();
+    let mut merged = 0;
+    for line in text.split_inclusive('\n') {
+        match marker(line) {
+            Some(m) => {
+                run.push(m);
+                merged += 1;
+            }
+            None => {
+                flush(&mut run, &mut out);
+                out.push_str(line);
+            }
+        }
+    }
+    flush(&mut run, &mut out);
+    (out, merged)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SVG: &str = "<svg width=\"10\" height=\"10\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n<circle cx=\"1.50\" cy=\"2.00\" r=\"0.30\" fill=\"#aa0000\"/>\n<circle cx=\"3.00\" cy=\"4.25\" r=\"0.30\" fill=\"#00aa00\"/>\n<circle cx=\"5.00\" cy=\"6.00\" r=\"0.30\" fill=\"#aa0000\"/>\n<text x=\"1\" y=\"1\">t</text>\n<rect x=\"60.00\" y=\"334.00\" width=\"10.50\" height=\"10.50\" fill=\"#7a9cc6\"/>\n<rect x=\"0\" y=\"0\" width=\"5\" height=\"1\" fill=\"#7a9cc6\"/>\n</svg>\n";
+
+    #[test]
+    fn markers_become_one_path_per_colour_and_everything_else_is_copied() {
+        let (c, n) = compact_svg(SVG);
+        assert_eq!(n, 4, "three circles and one square");
+        assert!(c.contains("<path d=\"M1.5 2h0m3.5 4h0\" fill=\"none\" stroke=\"#aa0000\" stroke-width=\"0.6\" stroke-linecap=\"round\"/>"), "{c}");
+        assert!(
+            c.contains("<path d=\"M3 4.25h0\" fill=\"none\" stroke=\"#00aa00\""),
+            "{c}"
+        );
+        // the square's centre, side as stroke width, square cap
+        assert!(c.contains("<path d=\"M65.25 339.25h0\" fill=\"none\" stroke=\"#7a9cc6\" stroke-width=\"10.5\" stroke-linecap=\"square\"/>"), "{c}");
+        // not markers: the background, the text, a non-square rect, in place
+        for keep in [
+            "<rect width=\"100%\"",
+            "<text x=\"1\" y=\"1\">t</text>",
+            "<rect x=\"0\" y=\"0\" width=\"5\" height=\"1\"",
+        ] {
+            assert!(c.contains(keep), "{keep} lost");
+        }
+        // order against other elements: the circles' paths come before the text
+        assert!(c.find("#aa0000").unwrap() < c.find("<text").unwrap());
+        assert!(c.find("<text").unwrap() < c.find("M65.25").unwrap());
+        assert_eq!(c.matches("h0").count(), 4, "one segment per marker");
+    }
+
+    #[test]
+    fn relative_moves_are_exact_in_hundredths() {
+        assert_eq!(hundredths(85), ".85");
+        assert_eq!(hundredths(-3), "-.03");
+        assert_eq!(hundredths(200), "2");
+        assert_eq!(hundredths(-1234), "-12.34");
+        assert_eq!(hundredths(0), "0");
+        // three markers of one colour: absolute, then deltas that sum back exactly
+        let svg = "<circle cx=\"1.01\" cy=\"1.01\" r=\"0.5\" fill=\"#000\"/>\n<circle cx=\"1.34\" cy=\"0.99\" r=\"0.5\" fill=\"#000\"/>\n<circle cx=\"1.00\" cy=\"2.00\" r=\"0.5\" fill=\"#000\"/>\n";
+        let (c, _) = compact_svg(svg);
+        assert!(c.contains("d=\"M1.01 1.01h0m.33-.02h0m-.34 1.01h0\""), "{c}");
+    }
+
+    #[test]
+    fn a_figure_without_markers_is_unchanged() {
+        let plain = "<svg>\n<line x1=\"0\" y1=\"0\" x2=\"1\" y2=\"1\"/>\n<text>a</text>\n</svg>\n";
+        assert_eq!(compact_svg(plain), (plain.to_string(), 0));
+    }
+}
