@@ -510,3 +510,53 @@ fn a_figure_over_its_cap_leaves_the_entry_complete() {
     assert!(f.complete());
     assert!(store::verify(&dir, &lock).is_empty());
 }
+
+/// A partial entry is recomputed only for a reader of what it left out: a plot of its
+/// scalars runs on it as served, a plot of its table makes it run again (the rule reads the
+/// readers' declared tables, `Kind::reads`).
+#[test]
+fn a_partial_entry_reruns_only_for_a_reader_of_what_it_left_out() {
+    let yaml = r#"version: 1
+stages:
+  - id: psd-a
+    kind: psd
+    params: { n: 300, seed: 1 }
+  - id: by-scalars
+    kind: plot
+    params: { panels: [ { x: { label: "n" }, y: { label: "d50" }, series: [ { from: psd, source: scalars, x: n, y: d50_m, label: "a" } ] } ] }
+    inputs: { psd: psd-a }
+  - id: by-table
+    kind: plot
+    params: { panels: [ { x: { label: "grain" }, y: { label: "d" }, series: [ { from: psd, x: grain, y: d_m, label: "a" } ] } ] }
+    inputs: { psd: psd-a }
+"#;
+    let t = TempProject::new(yaml);
+    let proj = Project::new(t.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    run(&p, &proj, &opts()).unwrap();
+    // a cap that leaves psd-a's table (and nothing else it publishes) out of the store
+    store::keep(
+        &p,
+        &proj,
+        Caps {
+            file: 2048,
+            csv: 64,
+            ..Caps::default()
+        },
+        None,
+    )
+    .unwrap();
+    let lock = store::read_lock(&store::dir_of(t.path(), "paper")).unwrap().unwrap();
+    let l = &lock.stages["psd-a"];
+    assert!(l.left_out.contains_key("store/table.parquet") && !l.complete(), "{l:?}");
+
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let label = |id: &str, v: &str| vec![Override::parse(&format!("{id}.columns={v}")).unwrap()];
+    // the scalars' plot changes and runs; psd-a, served without its table, does not
+    let p2 = load(&t.pipeline(), "paper", &label("by-scalars", "2")).unwrap();
+    assert_eq!(sorted(run(&p2, &proj, &opts()).unwrap().ran()), ["by-scalars"]);
+    // the table's plot changes: it reads what was left out, so psd-a runs again
+    let p3 = load(&t.pipeline(), "paper", &label("by-table", "2")).unwrap();
+    assert_eq!(sorted(run(&p3, &proj, &opts()).unwrap().ran()), ["by-table", "psd-a"]);
+}

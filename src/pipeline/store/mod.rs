@@ -25,8 +25,9 @@
 //!
 //! **As a second cache** ([`prepare`]): before a run of profile `P`, each planned stage whose
 //! key the lock holds is served from `R/store` (imported into the cache) unless it must
-//! run; a stage must run when it is forced, has no entry anywhere, or is needed as the input
-//! of a stage that runs while only a partial entry of it exists. So a fresh clone continues a
+//! run; a stage must run when it is forced, has no entry anywhere, or only a partial entry of
+//! it exists and a stage that runs reads what that entry left out (the tables its kind's
+//! `reads` name, or every table when its kind names none). So a fresh clone continues a
 //! run that an earlier machine began, and recomputes only what is stale or missing.
 //!
 //! **Writing** ([`keep`]): the new `R` is built beside the old one and swapped in by renames,
@@ -313,7 +314,8 @@ pub fn plan_serving(
             locks.entry(id.clone()).or_insert_with(|| (dir.join(STORE), l.clone()));
         }
     }
-    let mut needed_full: HashMap<&str, &str> = HashMap::new();
+    // For each stage, the stages that run and read it, with the tables they read of it.
+    let mut readers: HashMap<String, Vec<(String, Reads)>> = HashMap::new();
     let mut out = HashMap::new();
     for id in set.iter().rev() {
         let key = &keys[id].1;
@@ -327,21 +329,38 @@ pub fn plan_serving(
         let committed = entry.map(|(_, l)| l);
         let full = main == Some(false) || committed.is_some_and(|l| l.complete());
         let any = main.is_some() || committed.is_some();
+        // What the best entry at hand left out (store-relative names).
+        let left: HashSet<String> = if full {
+            HashSet::new()
+        } else if let Some(l) = committed {
+            l.left_out
+                .keys()
+                .filter_map(|n| n.strip_prefix("store/"))
+                .map(String::from)
+                .collect()
+        } else {
+            std::fs::read(here.join(PARTIAL))
+                .ok()
+                .and_then(|b| serde_json::from_slice::<Vec<String>>(&b).ok())
+                .unwrap_or_default()
+                .into_iter()
+                .collect()
+        };
         let why = if forced.contains(id) {
             Some("forced".to_string())
         } else if !any {
             Some("never ran".to_string())
         } else {
-            needed_full
+            readers
                 .get(id.as_str())
-                .filter(|_| !full)
-                .map(|c| format!("its committed entry left tables out, and {c}, which reads it, runs"))
+                .into_iter()
+                .flatten()
+                .find_map(|(c, reads)| needs_left_out(reads, &left).map(|what| (c, what)))
+                .map(|(c, what)| format!("its committed entry left {what} out, and {c}, which reads it, runs"))
         };
         let decision = if let Some(why) = why {
-            for (_, ids) in &p.get(id).expect("planned stage").inputs {
-                for i in ids {
-                    needed_full.entry(i.as_str()).or_insert(id.as_str());
-                }
+            for (input, reads) in tables_read(p, id) {
+                readers.entry(input).or_default().push((id.clone(), reads));
             }
             Serving::Run(why, main == Some(true))
         } else if let Some((store, l)) = entry
@@ -364,6 +383,49 @@ pub fn plan_serving(
         out.insert(id.clone(), decision);
     }
     Ok(out)
+}
+
+/// What a stage that runs reads of one input: the tables its params name, or every file
+/// (None) when its kind does not declare what its params name.
+type Reads = Option<HashSet<String>>;
+
+/// The inputs of stage `id` with what it reads of each ([`Reads`]), from its kind's
+/// declared `reads` (the plot, snapshot, comparison and fit kinds declare them).
+fn tables_read(p: &Pipeline, id: &str) -> Vec<(String, Reads)> {
+    use crate::stages::kind::Item;
+    let s = p.get(id).expect("planned stage");
+    let declared = p.kinds.get(s.kind.as_str()).and_then(|k| k.reads).map(|f| f(&s.params));
+    let mut out = Vec::new();
+    for (role, ids) in &s.inputs {
+        let reads: Reads = declared.as_ref().map(|rs| {
+            rs.iter()
+                .filter(|r| &r.role == role)
+                .filter_map(|r| match &r.item {
+                    Item::Table(t) | Item::Column(t, _) | Item::ColumnOrScalar(t, _) => Some(t.clone()),
+                    Item::Scalar(_) => None,
+                })
+                .collect()
+        });
+        out.extend(ids.iter().map(|i| (i.clone(), reads.clone())));
+    }
+    out
+}
+
+/// Does a reader need a file its input's entry left out? Names what, or None. A reader
+/// that declares its tables needs only those (and the entry's JSON: its scalars); one that
+/// does not needs every JSON and Parquet file. A stage that reads an undeclared table of a
+/// partial entry fails naming it: never a silent difference.
+fn needs_left_out(reads: &Reads, left: &HashSet<String>) -> Option<String> {
+    let mut hit: Vec<&String> = left
+        .iter()
+        .filter(|f| {
+            f.ends_with(".json")
+                || f.strip_suffix(".parquet")
+                    .is_some_and(|t| reads.as_ref().is_none_or(|r| r.contains(t)))
+        })
+        .collect();
+    hit.sort();
+    (!hit.is_empty()).then(|| hit.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", "))
 }
 
 /// Before a run: serve what the committed store holds (see the module doc), as
