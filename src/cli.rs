@@ -164,7 +164,7 @@ pub enum Cmd {
         #[arg(long, value_enum, default_value = "paper")]
         profile: ProfileArg,
         /// Largest file kept [MB] (per-particle snapshot tables and fields are larger).
-        #[arg(long, default_value_t = 4.0)]
+        #[arg(long, default_value_t = 2.0)]
         max_file_mb: f64,
         /// Keep one on-demand study (a stage declared `on_demand: true`) in
         /// `results/<stage>/` instead: the on-demand stages it needs, under their own lock.

@@ -560,3 +560,41 @@ stages:
     let p3 = load(&t.pipeline(), "paper", &label("by-table", "2")).unwrap();
     assert_eq!(sorted(run(&p3, &proj, &opts()).unwrap().ran()), ["by-table", "psd-a"]);
 }
+
+/// A re-keep under a smaller figure cap trims what it carries too: the carried entry's
+/// figure leaves the store (its manifest rewritten, so the entry still verifies and serves)
+/// and the lock stays consistent.
+#[test]
+fn a_rekeep_applies_the_figure_cap_to_carried_results() {
+    let t = kept(Caps::default());
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    let k = store::keep(
+        &p,
+        &proj,
+        Caps {
+            figure: 64,
+            ..Caps::default()
+        },
+        None,
+    )
+    .unwrap();
+    assert!(k.kept.is_empty() && k.carried.len() == 5, "{k:?}");
+    let dir = store::dir_of(t.path(), "paper");
+    let lock = store::read_lock(&dir).unwrap().unwrap();
+    let f = &lock.stages["fig-a"];
+    assert!(
+        f.left_out.contains_key("store/figure.svg") && !f.store.contains_key("figure.svg"),
+        "{f:?}"
+    );
+    assert!(
+        store::verify(&dir, &lock).is_empty(),
+        "{:?}",
+        store::verify(&dir, &lock)
+    );
+    // still served to an empty cache: nothing runs
+    let other = tempfile::tempdir().unwrap();
+    let proj2 = Project::new(t.path()).with_cache(other.path());
+    assert!(run(&p, &proj2, &opts()).unwrap().ran().is_empty());
+}

@@ -312,7 +312,7 @@ pub(crate) fn print_committed(p: &crate::pipeline::Pipeline) -> i32 {
 /// `keep`: write `results/<profile>/` (or `results/<study>/`) from the cache.
 pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f64, study: Option<&str>) -> i32 {
     if !(max_file_mb > 0.0) {
-        eprintln!("error: --max-file-mb {max_file_mb}: must be a positive size in MB\n  help: e.g. --max-file-mb 4");
+        eprintln!("error: --max-file-mb {max_file_mb}: must be a positive size in MB\n  help: e.g. --max-file-mb 2");
         return 2;
     }
     let caps = crate::pipeline::store::Caps {

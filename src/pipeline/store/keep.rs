@@ -101,6 +101,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
     let mut lock = Lock {
         profile: p.profile.clone(),
         stages: BTreeMap::new(),
+        closures: BTreeMap::new(),
     };
     let mut out = Kept::default();
     for s in p.stages.iter().filter(|s| wanted.contains(s.id.as_str())) {
@@ -123,6 +124,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                         .unwrap_or_default()
                 }),
                 wall_s: None,
+                closure: None,
             };
             store_entry(&entry, &st.join(STORE).join(key), key, caps, &mut l, &mut out, &s.id)?;
             l.wall_s = std::fs::read(entry.join("record.json"))
@@ -174,17 +176,71 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
             out.kept.push(s.id.clone());
         } else if let Some(l) = old.stages.get(&s.id) {
             let (from, to) = (dir.join(STORE).join(&l.key), st.join(STORE).join(&l.key));
+            let mut l = l.clone();
+            // The figure cap applies to what is carried too: a store figure over it (kept
+            // under an older, larger cap) leaves the store, hash kept, and is published in
+            // its compact form; the entry's manifest no longer lists it.
+            let big: Vec<(String, String)> = l
+                .store
+                .iter()
+                .filter(|(n, _)| {
+                    n.ends_with(".svg")
+                        && std::fs::metadata(from.join(n.as_str())).map(|m| m.len()).unwrap_or(0) > caps.of(n)
+                })
+                .map(|(n, h)| (n.clone(), h.clone()))
+                .collect();
+            for (n, h) in &big {
+                let bytes = fsio::read(&from.join(n))?;
+                l.store.remove(n);
+                l.left_out.insert(format!("{STORE}/{n}"), h.clone());
+                let name = if n == "figure.svg" {
+                    format!("{}.svg", s.id)
+                } else {
+                    format!("{}-{n}", s.id)
+                };
+                if let Some((name, small)) = compact_figure(&name, &bytes, caps.file)
+                    && !l.published.contains_key(&name)
+                {
+                    fsio::write_new(&st.join(&name), &small)?;
+                    out.bytes += small.len() as u64;
+                    out.compacted
+                        .push((s.id.clone(), name.clone(), bytes.len() as u64, small.len() as u64));
+                    l.published.insert(name, hash_bytes(&small));
+                }
+            }
+            let manifest = if big.is_empty() {
+                None
+            } else {
+                let mut m: Value = serde_json::from_slice(&fsio::read(&from.join("manifest.json"))?)?;
+                if let Some(files) = m.get_mut("files").and_then(Value::as_object_mut) {
+                    for (n, _) in &big {
+                        files.remove(n);
+                    }
+                }
+                let bytes = serde_json::to_vec_pretty(&m)?;
+                l.store.insert("manifest.json".into(), hash_bytes(&bytes));
+                Some(bytes)
+            };
             if !to.exists() {
                 fsio::create_dir_all(&to)?;
                 for n in l.store.keys() {
-                    copy(&from.join(n), &to.join(n), &mut out.bytes)?;
+                    match (&manifest, n.as_str()) {
+                        (Some(m), "manifest.json") => {
+                            fsio::write_new(&to.join(n), m)?;
+                            out.bytes += m.len() as u64;
+                        }
+                        _ => copy(&from.join(n), &to.join(n), &mut out.bytes)?,
+                    }
                 }
             }
             // The size policy applies to what is carried too: a published CSV over the
             // cap (kept under an older, larger cap) moves to the left-out list, hash kept.
-            let mut l = l.clone();
             let published = std::mem::take(&mut l.published);
             for (n, h) in published {
+                if st.join(&n).exists() {
+                    l.published.insert(n, h); // the compact form written above
+                    continue;
+                }
                 let size = std::fs::metadata(dir.join(&n)).map(|m| m.len()).unwrap_or(0);
                 if n.ends_with(".csv") && size > caps.csv {
                     out.left_out.push((s.id.clone(), n.clone(), size));
@@ -207,7 +263,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
     drop(publish_dir);
     // The ledger and the index, judged on what is kept and fresh: a carried result whose
     // key or code changed since is shown as committed, marked, and judges no claim.
-    fsio::write_new(&st.join(LOCK), &serde_json::to_vec_pretty(&lock)?)?;
+    fsio::write_new(&st.join(LOCK), &serde_json::to_vec_pretty(&lock.packed())?)?;
     let not_current: BTreeMap<String, String> = super::status(p, st, &lock)
         .into_iter()
         .filter_map(|(id, c)| c.describe().map(|d| (id, d)))

@@ -59,6 +59,42 @@ pub struct Lock {
     pub profile: String,
     /// Kept stages by id.
     pub stages: BTreeMap<String, Locked>,
+    /// As written: each distinct source closure once, by its id ([`Lock::packed`]); empty
+    /// in memory ([`read_lock`] resolves every stage's `closure`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub closures: BTreeMap<String, BTreeMap<String, String>>,
+}
+
+impl Lock {
+    /// The lock as written: a source closure shared by many stages (every stage of one kind
+    /// has the same) is written once under `closures`, each stage naming it in `closure`.
+    pub fn packed(&self) -> Lock {
+        let mut out = self.clone();
+        for l in out.stages.values_mut() {
+            if l.sources.is_empty() {
+                continue;
+            }
+            let bytes = serde_json::to_vec(&l.sources).expect("a map of strings serializes");
+            let id = hash_bytes(&bytes)[..16].to_string();
+            out.closures.insert(id.clone(), std::mem::take(&mut l.sources));
+            l.closure = Some(id);
+        }
+        out
+    }
+
+    /// Resolve every stage's `closure` into its `sources` (the in-memory form).
+    fn unpacked(mut self) -> Result<Lock, String> {
+        let closures = std::mem::take(&mut self.closures);
+        for (id, l) in self.stages.iter_mut() {
+            if let Some(c) = l.closure.take() {
+                l.sources = closures
+                    .get(&c)
+                    .cloned()
+                    .ok_or_else(|| format!("stage `{id}` names source closure `{c}`, which the lock does not hold"))?;
+            }
+        }
+        Ok(self)
+    }
 }
 
 /// One kept stage.
@@ -75,7 +111,11 @@ pub struct Locked {
     /// Entry and published files left out, BLAKE3 by name (entry files as `store/NAME`).
     pub left_out: BTreeMap<String, String>,
     /// The source files its kind is built from, BLAKE3 by path (`Cargo.lock` included).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub sources: BTreeMap<String, String>,
+    /// As written: the id of its source closure in [`Lock::closures`] (None in memory).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub closure: Option<String>,
     /// Wall time of the run that made it [s], when recorded.
     #[serde(default)]
     pub wall_s: Option<f64>,
@@ -118,9 +158,9 @@ impl Caps {
 impl Default for Caps {
     fn default() -> Caps {
         Caps {
-            file: 4 << 20,
+            file: 2 << 20,
             csv: 64 << 10,
-            figure: 1 << 20,
+            figure: 128 << 10,
         }
     }
 }
@@ -134,12 +174,16 @@ pub fn dir_of(root: &Path, profile: &str) -> PathBuf {
 pub fn read_lock(dir: &Path) -> anyhow::Result<Option<Lock>> {
     let path = dir.join(LOCK);
     match std::fs::read(&path) {
-        Ok(b) => Ok(Some(serde_json::from_slice(&b).map_err(|e| {
-            anyhow::anyhow!(
-                "{}: not a results lock ({e}); restore it from version control",
-                path.display()
-            )
-        })?)),
+        Ok(b) => {
+            let bad = |e: String| {
+                anyhow::anyhow!(
+                    "{}: not a results lock ({e}); restore it from version control",
+                    path.display()
+                )
+            };
+            let lock: Lock = serde_json::from_slice(&b).map_err(|e| bad(e.to_string()))?;
+            Ok(Some(lock.unpacked().map_err(bad)?))
+        }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(fsio::at("cannot read", &path, e).into()),
     }
