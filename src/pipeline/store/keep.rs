@@ -152,16 +152,17 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     l.left_out.insert(f.clone(), hash_bytes(&bytes));
                     continue;
                 }
-                if n > csv_cap && !bulky(&f) {
-                    if let Some((name, small)) = compact_figure(&f, &bytes, caps.file) {
-                        // a snapshot figure over the cap: its compact form instead
-                        l.left_out.insert(f.clone(), hash_bytes(&bytes));
-                        fsio::write_new(&st.join(&name), &small)?;
-                        l.published.insert(name, hash_bytes(&small));
-                        out.bytes += small.len() as u64;
-                        out.compacted.push((s.id.clone(), f, n, small.len() as u64));
-                        continue;
-                    }
+                // a snapshot figure over the cap: its compact form instead
+                if n > csv_cap
+                    && !bulky(&f)
+                    && let Some((name, small)) = compact_figure(&f, &bytes, caps.file)
+                {
+                    l.left_out.insert(f.clone(), hash_bytes(&bytes));
+                    fsio::write_new(&st.join(&name), &small)?;
+                    l.published.insert(name, hash_bytes(&small));
+                    out.bytes += small.len() as u64;
+                    out.compacted.push((s.id.clone(), f, n, small.len() as u64));
+                    continue;
                 }
                 if n > csv_cap || bulky(&f) {
                     l.left_out.insert(f.clone(), hash_bytes(&bytes));

@@ -356,7 +356,9 @@ fn moments(v: &[f64]) -> (f64, f64, f64, f64) {
 /// The spread of each method's perturbed-energy ensembles (table only; the figure is the
 /// declared plot `pile-ensembles-fig`).
 fn run_ensemble(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
-    let mut rows: Vec<(String, f64, usize, [f64; 4], [f64; 4])> = Vec::new();
+    // (method, geometric-mean E_0, members, ΔL moments, t_f moments)
+    type Row = (String, f64, usize, [f64; 4], [f64; 4]);
+    let mut rows: Vec<Row> = Vec::new();
     for inp in ctx.inputs_of("runs") {
         let r = run_of(inp)?;
         let m = r.method.to_lowercase();
@@ -394,7 +396,6 @@ fn run_ensemble(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
         out.scalar(&format!("{m}_dl_rel_sd_max"), worst_dl)
             .scalar(&format!("{m}_tf_rel_sd_max"), worst_tf);
     }
-    type Row = (String, f64, usize, [f64; 4], [f64; 4]);
     let num = |name: &str, f: &dyn Fn(&Row) -> f64| {
         polars::prelude::Column::new(name.into(), rows.iter().map(f).collect::<Vec<f64>>())
     };
