@@ -178,6 +178,22 @@ fn the_repositorys_committed_results_match_their_lock() {
         let p = load(&root.join("pipeline.yaml"), profile, &[]).unwrap();
         let gone: Vec<&String> = lock.stages.keys().filter(|id| p.get(id).is_none()).collect();
         assert!(gone.is_empty(), "kept stages no longer in the pipeline: {gone:?}");
+        // every figure and link the committed index shows is a committed file
+        let index = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        let missing: Vec<&str> = index
+            .split("src=\"")
+            .skip(1)
+            .chain(index.split("href=\"").skip(1))
+            .filter_map(|r| r.split('"').next())
+            .filter(|f| !f.contains("://") && !f.starts_with('#') && !f.is_empty())
+            .map(|f| f.split('#').next().unwrap())
+            .filter(|f| !dir.join(f).exists())
+            .collect();
+        assert!(
+            missing.is_empty(),
+            "{}: the index names missing files: {missing:?}",
+            dir.display()
+        );
     }
 }
 
