@@ -20,6 +20,15 @@ fn kept(caps: Caps) -> TempProject {
     t
 }
 
+/// Keep `t` again under `caps` from an empty cache (another machine): every stage is
+/// carried from the committed store.
+fn rekept(t: &TempProject, caps: Caps) -> store::Kept {
+    let empty = tempfile::tempdir().unwrap();
+    let proj = Project::new(t.path()).with_cache(empty.path());
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
+    store::keep(&p, &proj, caps, None).unwrap()
+}
+
 fn state(p: &granrepro::pipeline::Pipeline, t: &TempProject, id: &str) -> Committed {
     let dir = store::dir_of(t.path(), "paper");
     let lock = store::read_lock(&dir).unwrap().unwrap();
@@ -403,19 +412,14 @@ fn a_rekeep_applies_the_csv_cap_to_carried_results() {
     let csv = dir.join("psd-a.csv");
     let size = std::fs::metadata(&csv).unwrap().len();
     assert!(size > 1024, "the test needs psd-a.csv over 1 KB: {size}");
-    let empty = tempfile::tempdir().unwrap();
-    let proj = Project::new(t.path()).with_cache(empty.path());
-    let p = load(&t.pipeline(), "paper", &[]).unwrap();
-    let k = store::keep(
-        &p,
-        &proj,
+    let k = rekept(
+        &t,
         Caps {
             csv: 1024,
             ..Caps::default()
         },
-        None,
-    )
-    .unwrap();
+    );
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
     assert!(k.kept.is_empty() && k.carried.len() == 5, "{k:?}");
     assert!(
         !csv.exists(),
@@ -583,19 +587,14 @@ stages:
 #[test]
 fn a_rekeep_applies_the_figure_cap_to_carried_results() {
     let t = kept(Caps::default());
-    let empty = tempfile::tempdir().unwrap();
-    let proj = Project::new(t.path()).with_cache(empty.path());
-    let p = load(&t.pipeline(), "paper", &[]).unwrap();
-    let k = store::keep(
-        &p,
-        &proj,
+    let k = rekept(
+        &t,
         Caps {
             figure: 64,
             ..Caps::default()
         },
-        None,
-    )
-    .unwrap();
+    );
+    let p = load(&t.pipeline(), "paper", &[]).unwrap();
     assert!(k.kept.is_empty() && k.carried.len() == 5, "{k:?}");
     let dir = store::dir_of(t.path(), "paper");
     let lock = store::read_lock(&dir).unwrap().unwrap();

@@ -26,7 +26,7 @@ use super::fsio;
 pub const SETS: &str = ".sets";
 
 /// Published name of an entry file for stage `id`.
-fn published_name(id: &str, file: &str) -> String {
+pub(crate) fn published_name(id: &str, file: &str) -> String {
     match file {
         "result.json" => format!("{id}.json"),
         "record.json" => format!("{id}.record.json"),

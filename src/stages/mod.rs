@@ -14,6 +14,7 @@ pub mod column;
 pub mod generic;
 pub mod kind;
 pub mod pile;
+pub mod reads;
 pub mod registry;
 pub mod work_precision;
 

@@ -147,7 +147,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 if f.ends_with(".parquet") {
                     continue; // the store holds the tables
                 }
-                if store_twin(&s.id, &f).is_some_and(|n| l.store.contains_key(&n)) {
+                if store_holds_twin(&s.id, &f, &l.store) {
                     // the store holds the figure: committed once (listed with its hash)
                     l.left_out.insert(f.clone(), hash_bytes(&bytes));
                     continue;
@@ -155,13 +155,10 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 // a snapshot figure over the cap: its compact form instead
                 if n > csv_cap
                     && !bulky(&f)
-                    && let Some((name, small)) = compact_figure(&f, &bytes, caps.file)
+                    && let Some(compact) = compact_figure(&f, &bytes, caps.file)
                 {
-                    l.left_out.insert(f.clone(), hash_bytes(&bytes));
-                    fsio::write_new(&st.join(&name), &small)?;
-                    l.published.insert(name, hash_bytes(&small));
-                    out.bytes += small.len() as u64;
-                    out.compacted.push((s.id.clone(), f, n, small.len() as u64));
+                    l.left_out.insert(f, hash_bytes(&bytes));
+                    publish_compact(st, &s.id, compact, n, &mut l, &mut out)?;
                     continue;
                 }
                 if n > csv_cap || bulky(&f) {
@@ -194,19 +191,11 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 let bytes = fsio::read(&from.join(n))?;
                 l.store.remove(n);
                 l.left_out.insert(format!("{STORE}/{n}"), h.clone());
-                let name = if n == "figure.svg" {
-                    format!("{}.svg", s.id)
-                } else {
-                    format!("{}-{n}", s.id)
-                };
-                if let Some((name, small)) = compact_figure(&name, &bytes, caps.file)
-                    && !l.published.contains_key(&name)
+                let name = publish::published_name(&s.id, n);
+                if let Some(compact) = compact_figure(&name, &bytes, caps.file)
+                    && !l.published.contains_key(&compact.0)
                 {
-                    fsio::write_new(&st.join(&name), &small)?;
-                    out.bytes += small.len() as u64;
-                    out.compacted
-                        .push((s.id.clone(), name.clone(), bytes.len() as u64, small.len() as u64));
-                    l.published.insert(name, hash_bytes(&small));
+                    publish_compact(st, &s.id, compact, bytes.len() as u64, &mut l, &mut out)?;
                 }
             }
             let manifest = if big.is_empty() {
@@ -248,7 +237,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     l.left_out.insert(n, h);
                     continue;
                 }
-                if store_twin(&s.id, &n).is_some_and(|t| l.store.contains_key(&t)) {
+                if store_holds_twin(&s.id, &n, &l.store) {
                     l.left_out.insert(n, h);
                     continue;
                 }
@@ -367,17 +356,30 @@ fn compact_figure(name: &str, bytes: &[u8], cap: u64) -> Option<(String, Vec<u8>
     (merged > 0 && (small.len() as u64) <= cap).then(|| (format!("{stem}.compact.svg"), small.into_bytes()))
 }
 
-/// The store file a published figure of stage `id` is a stamped twin of (`ID.svg` of
-/// `figure.svg`, `ID-NAME.svg` of `NAME.svg`; `crate::pipeline::publish`); None for other
-/// files.
-fn store_twin(id: &str, published: &str) -> Option<String> {
-    if !published.ends_with(".svg") {
-        return None;
-    }
-    if published == format!("{id}.svg") {
-        return Some("figure.svg".into());
-    }
-    published.strip_prefix(&format!("{id}-")).map(String::from)
+/// Does the store keep the figure that `published` (a file of stage `id`) is the stamped
+/// twin of (`crate::pipeline::publish::published_name`)?
+fn store_holds_twin(id: &str, published: &str, store: &BTreeMap<String, String>) -> bool {
+    published.ends_with(".svg")
+        && store
+            .keys()
+            .any(|n| n.ends_with(".svg") && publish::published_name(id, n) == published)
+}
+
+/// Publish `small`, the compact form `name` of a figure of stage `id` that was `size` bytes.
+fn publish_compact(
+    st: &Path,
+    id: &str,
+    (name, small): (String, Vec<u8>),
+    size: u64,
+    l: &mut Locked,
+    out: &mut Kept,
+) -> anyhow::Result<()> {
+    fsio::write_new(&st.join(&name), &small)?;
+    out.bytes += small.len() as u64;
+    out.compacted
+        .push((id.to_string(), name.clone(), size, small.len() as u64));
+    l.published.insert(name, hash_bytes(&small));
+    Ok(())
 }
 
 /// Per-particle snapshot tables and per-instant field files: left out whatever their size

@@ -126,21 +126,14 @@ fn run_inertial(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// What it reads of its inputs, whatever its params: the table of each of the six columns (for the committed store's serving
 /// rule and the load-time check of the inputs' declared outputs).
 fn reads(_: &serde_json::Value) -> Vec<crate::stages::kind::Read> {
-    [
+    crate::stages::reads::tables(&[
         ("mui04", "table"),
         ("mui6", "table"),
         ("mc04", "table"),
         ("mc6", "table"),
         ("dem04", "table"),
         ("dem6", "table"),
-    ]
-    .into_iter()
-    .map(|(role, table)| crate::stages::kind::Read {
-        role: role.to_string(),
-        key: "(the kind's fixed reads)".to_string(),
-        item: crate::stages::kind::Item::Table(table.to_string()),
-    })
-    .collect()
+    ])
 }
 
 /// Kind `column-inertial`.

@@ -88,14 +88,7 @@ fn run_packing(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// What it reads of its inputs, whatever its params: the packing table of the loose and the dense column (for the committed store's serving
 /// rule and the load-time check of the inputs' declared outputs).
 fn reads(_: &serde_json::Value) -> Vec<crate::stages::kind::Read> {
-    [("loose", "packing"), ("dense", "packing")]
-        .into_iter()
-        .map(|(role, table)| crate::stages::kind::Read {
-            role: role.to_string(),
-            key: "(the kind's fixed reads)".to_string(),
-            item: crate::stages::kind::Item::Table(table.to_string()),
-        })
-        .collect()
+    crate::stages::reads::tables(&[("loose", "packing"), ("dense", "packing")])
 }
 
 /// Kind `column-packing`.

@@ -187,19 +187,12 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
 /// What it reads of its inputs, whatever its params: the table of every column and pile run (for the committed store's serving
 /// rule and the load-time check of the inputs' declared outputs).
 fn reads(_: &serde_json::Value) -> Vec<crate::stages::kind::Read> {
-    [
+    crate::stages::reads::tables(&[
         ("col_dem", "table"),
         ("col_mpm", "table"),
         ("pile_dem", "table"),
         ("pile_mpm", "table"),
-    ]
-    .into_iter()
-    .map(|(role, table)| crate::stages::kind::Read {
-        role: role.to_string(),
-        key: "(the kind's fixed reads)".to_string(),
-        item: crate::stages::kind::Item::Table(table.to_string()),
-    })
-    .collect()
+    ])
 }
 
 /// Kind `energy-runout`.
