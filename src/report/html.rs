@@ -226,6 +226,8 @@ pub fn write_index_of(
                 (
                     if ms.is_empty() {
                         "— (no simulation: inputs and stated laws)".to_string()
+                    } else if perr.is_empty() {
+                        "— (wp-summary not run for this profile)".to_string()
                     } else {
                         "— (no work-precision stage for this method)".to_string()
                     },

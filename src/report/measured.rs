@@ -104,11 +104,16 @@ pub fn footer_line(profile: &str, ms: &[&str], errs: &ProfileErrors) -> String {
     }
 }
 
-/// The `measured` block of a stage's published `ID.json`.
+/// The `measured` block of a stage's published `ID.json`: every method the stage runs, with
+/// its measured error where the atlas has one (null fields where it has none, so a reader
+/// still sees that a simulation stands behind the stage).
 pub fn json_block(profile: &str, ms: &[&str], errs: &ProfileErrors) -> Value {
     let per: Vec<Value> = ms
         .iter()
-        .filter_map(|m| errs.get(*m).map(|e| json!({ "method": m, "setting": e.setting, "rel_error": e.error, "rel_error_se": e.error_se, "one_run_wall_s": e.wall_s })))
+        .map(|m| match errs.get(*m) {
+            Some(e) => json!({ "method": m, "setting": e.setting, "rel_error": e.error, "rel_error_se": e.error_se, "one_run_wall_s": e.wall_s }),
+            None => json!({ "method": m, "setting": null, "rel_error": null, "rel_error_se": null, "one_run_wall_s": null }),
+        })
         .collect();
     json!({ "source": "wp-summary", "profile": profile, "methods": per })
 }
@@ -233,6 +238,11 @@ mod tests {
             "measured (wp-summary): DEM error 7.3 ± 9.4 % at k0.01-dt0.05, the setting standing for the quick profile (one run 10.8 s)"
         );
         assert_eq!(footer_line("quick", &[], &errs), "measured error: — (no simulation)");
+        // A method without a measurement is still listed (the index must not read it as
+        // "no simulation": every paper stage did before wp-summary ran).
+        let j = json_block("paper", &["cd"], &errs);
+        assert_eq!(j["methods"][0]["method"], json!("cd"));
+        assert!(j["methods"][0]["rel_error"].is_null());
         let j = json_block("quick", &["mpm"], &errs);
         assert_eq!(j["methods"][0]["rel_error"], json!(0.052));
         assert!(j["methods"][0]["rel_error_se"].is_null());
