@@ -516,6 +516,7 @@ fn publish_all(
             paper.as_deref(),
             p.atlas(),
             &Default::default(),
+            &crate::pipeline::publish::stage_methods(p),
         )?;
     }
     Ok(())

@@ -22,17 +22,6 @@ fn num(v: &Value) -> String {
     }
 }
 
-/// Rebuild the index of one profile's report directory.
-pub fn write_index(dir: &Path, profile: &str, judged: Option<&[Judged]>) -> std::io::Result<()> {
-    let ids: Vec<String> = std::fs::read_dir(dir)?
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().to_string())
-        .filter(|n| n.ends_with(".json") && !n.ends_with(".record.json"))
-        .map(|n| n.trim_end_matches(".json").to_string())
-        .collect();
-    write_index_of(dir, profile, &ids, judged, None, None, &BTreeMap::new())
-}
-
 /// Where a stage sits in the chapter: (section, order key). Figures and tables by their
 /// number, tables at their first mention (table 4.1 before figure 4.1, 4.2 after figure
 /// 4.2, 4.3 after figure 4.3); other stages after the figures of their section, in the
@@ -115,6 +104,7 @@ pub fn write_index_of(
     paper: Option<&[Judged]>,
     atlas: Option<(&str, &str)>,
     not_current: &BTreeMap<String, String>,
+    methods: &std::collections::HashMap<String, Vec<&'static str>>,
 ) -> std::io::Result<()> {
     // Nothing judged here nor on the paper results (an on-demand study kept in
     // results/<study>/, or a pipeline without a ledger): no ledger tables, said once.
@@ -198,14 +188,13 @@ pub fn write_index_of(
         let caption = rec.get("caption").and_then(|c| c.as_str()).unwrap_or("");
         let svg = figure_link(dir, id, &rec);
         let has_svg = svg.is_some();
-        // the methods publishing stamped on this stage (read off the graph there)
+        // the stage's methods, read off the pipeline's graph (as publishing does): a result
+        // carried from the committed store keeps the measured block it was published with,
+        // which may predate a change of that block
         let ms: Vec<&str> = if atlas.map(|a| a.0) == Some(id.as_str()) {
             vec![]
         } else {
-            res.pointer("/measured/methods")
-                .and_then(|m| m.as_array())
-                .map(|a| a.iter().filter_map(|x| x["method"].as_str()).collect())
-                .unwrap_or_default()
+            methods.get(id).cloned().unwrap_or_default()
         };
         let err_note: Vec<String> = ms
             .iter()
@@ -446,4 +435,31 @@ fn section_ledger(judged: &[Judged], k: usize) -> String {
         esc(SECTIONS[k]),
         rows_table(&rows)
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::{BTreeMap, HashMap};
+
+    use super::write_index_of;
+
+    /// The index takes a stage's methods from the pipeline's graph, not from the measured
+    /// block the result was published with: a DEM column carried from the committed store
+    /// with an older block (no methods listed) read "no simulation" before.
+    #[test]
+    fn a_carried_result_keeps_the_methods_of_the_graph() {
+        let dir = std::env::temp_dir().join(format!("granrepro-index-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let old_block = serde_json::json!({ "stage": "col-dem-a2", "measured": { "source": "wp-summary", "methods": [] } });
+        std::fs::write(dir.join("col-dem-a2.json"), old_block.to_string()).unwrap();
+        std::fs::write(dir.join("col-dem-a2.record.json"), r#"{"caption":"DEM column","kind":"column-collapse"}"#).unwrap();
+        std::fs::write(dir.join("col-dem-a2.svg"), "<svg/>").unwrap();
+        let methods = HashMap::from([("col-dem-a2".to_string(), vec!["dem"])]);
+        let ids = vec!["col-dem-a2".to_string()];
+        write_index_of(&dir, "paper", &ids, None, None, None, &BTreeMap::new(), &methods).unwrap();
+        let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(html.contains("wp-summary not run for this profile"), "the DEM stage reads as a simulation");
+        assert!(!html.contains("no simulation"), "the stale published block decided the row");
+    }
 }

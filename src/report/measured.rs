@@ -110,9 +110,15 @@ pub fn footer_line(profile: &str, ms: &[&str], errs: &ProfileErrors) -> String {
 pub fn json_block(profile: &str, ms: &[&str], errs: &ProfileErrors) -> Value {
     let per: Vec<Value> = ms
         .iter()
-        .map(|m| match errs.get(*m) {
-            Some(e) => json!({ "method": m, "setting": e.setting, "rel_error": e.error, "rel_error_se": e.error_se, "one_run_wall_s": e.wall_s }),
-            None => json!({ "method": m, "setting": null, "rel_error": null, "rel_error_se": null, "one_run_wall_s": null }),
+        .map(|m| {
+            let e = errs.get(*m);
+            json!({
+                "method": m,
+                "setting": e.map(|e| &e.setting),
+                "rel_error": e.map(|e| e.error),
+                "rel_error_se": e.map(|e| e.error_se),
+                "one_run_wall_s": e.map(|e| e.wall_s),
+            })
         })
         .collect();
     json!({ "source": "wp-summary", "profile": profile, "methods": per })

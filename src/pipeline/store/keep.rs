@@ -268,7 +268,16 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
     if let Some(j) = &judged {
         crate::report::ledger::write_files(st, j)?;
     }
-    crate::report::html::write_index_of(st, &p.profile, &ids, judged.as_deref(), None, p.atlas(), &not_current)?;
+    crate::report::html::write_index_of(
+        st,
+        &p.profile,
+        &ids,
+        judged.as_deref(),
+        None,
+        p.atlas(),
+        &not_current,
+        &crate::pipeline::publish::stage_methods(p),
+    )?;
     // Swap: old aside, new in place, old removed.
     let staging = staging.keep();
     let trash = parent.join(format!(
