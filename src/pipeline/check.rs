@@ -123,7 +123,7 @@ pub fn matrix_key(
     let under = |k: &str, p: &str| p == k || p.starts_with(&format!("{k}.")) || p.starts_with(&format!("{k}["));
     for v in vals {
         let mut m = base.clone();
-        super::yaml::set_path(&mut m, key, v.clone());
+        super::yaml::set_path(&mut m, key, super::yaml::matrix_value(base, key, v));
         if !bad_numbers(&m).is_empty() {
             continue;
         }

@@ -454,9 +454,10 @@ pub(crate) fn load_profile(
                 })
                 .collect();
             if let Some((k, _, v)) = mval.as_ref().filter(|_| sets_param) {
+                let v = super::yaml::matrix_value(&merged, k, v);
                 set_path(&mut merged, k, v.clone());
                 let mut m = Yaml::Mapping(Mapping::new());
-                set_path(&mut m, k, v.clone());
+                set_path(&mut m, k, v);
                 let anchor = line.and_then(|ln| locate(&text, &["matrix"], ln)).unwrap_or(1);
                 mlayers.push((path.to_path_buf(), Some(text.clone()), vec![], anchor, m));
             }

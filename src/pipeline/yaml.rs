@@ -77,6 +77,28 @@ pub(crate) fn set_path(root: &mut Yaml, key: &str, value: Yaml) {
     }
 }
 
+/// The value a matrix member sets at the dotted `key` of the merged params `base`: the
+/// matrix value itself, or, where `base` holds a list there, a one-element list of it. A
+/// matrix over a list parameter runs each element as its own member (`matrix:
+/// { energies_mgd: [2.597, 5.194] }` on a `pile-run`: one energy per member, each cached
+/// as it completes, so a long sweep runs in pieces); readers fan in the members.
+pub(crate) fn matrix_value(base: &Yaml, key: &str, value: &Yaml) -> Yaml {
+    let mut cur = base;
+    for p in key.split('.') {
+        match cur {
+            Yaml::Mapping(m) => match m.get(Yaml::String(p.to_string())) {
+                Some(v) => cur = v,
+                None => return value.clone(),
+            },
+            _ => return value.clone(),
+        }
+    }
+    match cur {
+        Yaml::Sequence(_) => Yaml::Sequence(vec![value.clone()]),
+        _ => value.clone(),
+    }
+}
+
 /// Does `root` hold the key path (`["panels", "0]", "series"]`: a segment `N]` is a
 /// sequence index, as in `panels[0].series`)?
 pub(crate) fn has_path(root: &Yaml, key: &[&str]) -> bool {
@@ -110,5 +132,22 @@ pub fn canonical(v: Json) -> Json {
         }
         Json::Array(a) => Json::Array(a.into_iter().map(canonical).collect()),
         other => other,
+    }
+}
+
+#[cfg(test)]
+mod matrix_value_tests {
+    use super::matrix_value;
+    use serde_yaml::Value as Yaml;
+
+    /// A matrix over a list parameter sets a one-element list; over a scalar, the value.
+    #[test]
+    fn a_list_parameter_takes_one_element_per_member() {
+        let base: Yaml = serde_yaml::from_str("energies_mgd: [1.0, 2.0]\nmpm: { ppc: 4 }").unwrap();
+        let v = Yaml::from(2.0);
+        assert_eq!(matrix_value(&base, "energies_mgd", &v), Yaml::Sequence(vec![v.clone()]));
+        assert_eq!(matrix_value(&base, "mpm.ppc", &v), v);
+        assert_eq!(matrix_value(&base, "mpm.cell_size", &v), v);
+        assert_eq!(matrix_value(&base, "a", &v), v);
     }
 }
