@@ -138,6 +138,19 @@ pub fn decide(paper: f64, rule: &Tolerance, mean: f64, se: Option<f64>, sd: Opti
                 tol,
                 "one member of a chaotic output: its spread is unknown (3 or more members needed)".into(),
             ),
+            // Off by more than the tolerance and 2 s.e. together: a miss however wide the
+            // spread (as a one-sided bound is judged); within that, a spread as large as
+            // the tolerance never passes.
+            Some(s) if 2.0 * s >= tol && (mean - centre).abs() > tol + 2.0 * s => (
+                Verdict::Missed,
+                tol,
+                format!(
+                    "off by {:.3}, more than the tolerance {:.3} and 2 s.e. = {:.3} together",
+                    (mean - centre).abs(),
+                    tol,
+                    2.0 * s
+                ),
+            ),
             Some(s) if 2.0 * s >= tol => (
                 Verdict::NotResolved,
                 tol,
@@ -416,6 +429,18 @@ mod tests {
         assert_eq!(v, Verdict::Reproduced);
         let (v, ..) = decide(1.0, &Tolerance::Rel(0.15), 1.3, Some(0.05), Some(0.1));
         assert_eq!(v, Verdict::Missed);
+    }
+
+    /// A value farther from the chapter's than the tolerance and 2 s.e. together is a miss,
+    /// not "not resolved": before, any spread as large as the tolerance hid it (the paper
+    /// pile's L_f exponent, 0.113 ± 0.014 against 0.206 ± 0.012, read "not resolved").
+    #[test]
+    fn a_clear_miss_with_a_wide_spread_is_a_miss() {
+        let (v, _, note) = decide(0.206, &Tolerance::Abs(0.012), 0.113, Some(0.0135), None);
+        assert_eq!(v, Verdict::Missed, "{note}");
+        // within tolerance + 2 s.e.: still not resolved
+        let (v, ..) = decide(0.206, &Tolerance::Abs(0.012), 0.17, Some(0.0135), None);
+        assert_eq!(v, Verdict::NotResolved);
     }
 
     #[test]

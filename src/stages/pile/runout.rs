@@ -203,6 +203,12 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
             out.claims.push(Claim::rel("dem-tf-flat", "\"the DEM simulations show that the flow duration remains constant at a value t_f ≃ 60 (d/g)^0.5 irrespective of the value of E_0\" (mean t_f of the DEM runs below 40 mgd; tolerance 15 %)", 60.0, mean, 0.15));
         }
     }
+    // The fits' s.e. (scatter of single members about the law), for the ledger's judgement.
+    for (key, name) in [("lf_low", "dem_lf_low_se"), ("vs_low", "dem_vs_low_se"), ("vs_high", "dem_vs_high_se")] {
+        if let Some(f) = dem_fits.get(key) {
+            out.scalar(name, f.exponent_se);
+        }
+    }
     out.claims.push(exponent_claim(
         "alpha-lf",
         "DEM total L_f ∝ E_0^α below 40 mgd (the text's literal L_f, I9): 0.206 ± 0.012",
@@ -384,7 +390,7 @@ pub const RUNOUT_KIND: Kind = Kind {
     name: "pile-runout",
     source: file!(),
     method: None,
-    version: 3,
+    version: 4,
     about: "pile run-out, duration and speed against E_0 for every method: every exponent at the 40 mgd split and the fitted break (I9), ± s.e., the t_f and v_s claims",
     params: typed::<RunoutParams>,
     run: run_runout,
@@ -392,7 +398,8 @@ pub const RUNOUT_KIND: Kind = Kind {
     roles: crate::stages::kind::Roles::Fixed(&[("runs", crate::pipeline::context::Arity::Many)]),
     outputs: crate::stages::kind::Outputs {
         scalars: &[
-            "dem_dl_break_mgd", "dem_tf_low_mean", "dem_tf_low_spread", "mpm_dl_break_mgd", "split_mgd",
+            "dem_dl_break_mgd", "dem_lf_low_se", "dem_tf_low_mean", "dem_tf_low_spread", "dem_vs_high_se",
+            "dem_vs_low_se", "mpm_dl_break_mgd", "split_mgd",
         ],
         tables: &[crate::stages::kind::TableDecl {
             name: "table",
