@@ -186,6 +186,33 @@ fn run_of(inp: &InputRef) -> anyhow::Result<Run> {
     })
 }
 
+/// The runs of role `runs`, one per pile-run stage: the members of a stage swept over
+/// `energies_mgd` (ids `<stage>-energies_mgd<v>`, one energy each, so that a long sweep
+/// runs in pieces) join into one run of that stage, sorted by energy.
+fn joined_runs(ctx: &StageCtx) -> anyhow::Result<Vec<(&InputRef, Run)>> {
+    let base = |inp: &InputRef| inp.id.rsplit_once("-energies_mgd").map(|(b, _)| b.to_string());
+    let mut out: Vec<(&InputRef, Run)> = Vec::new();
+    for inp in ctx.inputs_of("runs") {
+        let r = run_of(inp)?;
+        match out.last_mut() {
+            Some((prev, acc)) if base(prev).is_some() && base(prev) == base(inp) => {
+                acc.e.extend(r.e);
+                acc.dl.extend(r.dl);
+                acc.tf.extend(r.tf);
+            }
+            _ => out.push((inp, r)),
+        }
+    }
+    for (_, r) in &mut out {
+        let mut order: Vec<usize> = (0..r.e.len()).collect();
+        order.sort_by(|&a, &b| r.e[a].total_cmp(&r.e[b]));
+        for v in [&mut r.e, &mut r.dl, &mut r.tf] {
+            *v = order.iter().map(|&i| v[i]).collect();
+        }
+    }
+    Ok(out)
+}
+
 /// Values of `b` at the energies of `a` (exact matches only): (E_0, a, b).
 fn paired(ea: &[f64], ya: &[f64], eb: &[f64], yb: &[f64]) -> Vec<(f64, f64, f64)> {
     ea.iter()
@@ -359,8 +386,7 @@ fn run_ensemble(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
     // (method, geometric-mean E_0, members, ΔL moments, t_f moments)
     type Row = (String, f64, usize, [f64; 4], [f64; 4]);
     let mut rows: Vec<Row> = Vec::new();
-    for inp in ctx.inputs_of("runs") {
-        let r = run_of(inp)?;
+    for (inp, r) in joined_runs(ctx)? {
         let m = r.method.to_lowercase();
         let groups: Vec<(f64, f64)> = ensembles(&r.e, p.ensemble_rel)
             .into_iter()
@@ -418,13 +444,13 @@ fn run_ensemble(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
 
 fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::Result<()> {
     let mut runs = Vec::new();
-    for inp in ctx.inputs_of("runs") {
+    for (inp, r) in joined_runs(ctx)? {
         let eps = inp
             .params
             .pointer("/cd/restitution_n")
             .and_then(|v| v.as_f64())
             .ok_or_else(|| anyhow::anyhow!("input `{}` is not a CD pile-run (no cd.restitution_n)", inp.id))?;
-        runs.push((eps, run_of(inp)?));
+        runs.push((eps, r));
     }
     anyhow::ensure!(
         runs.len() >= 2,
