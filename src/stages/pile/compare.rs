@@ -186,29 +186,23 @@ fn run_of(inp: &InputRef) -> anyhow::Result<Run> {
     })
 }
 
-/// The runs of role `runs`, one per pile-run stage: the members of a stage swept over
-/// `energies_mgd` (ids `<stage>-energies_mgd<v>`, one energy each, so that a long sweep
-/// runs in pieces) join into one run of that stage, sorted by energy.
+/// The runs of role `runs`, one per pile-run stage (the members of an `energies_mgd`
+/// sweep joined, sorted by energy; [`super::members`]), each with its first input.
 fn joined_runs(ctx: &StageCtx) -> anyhow::Result<Vec<(&InputRef, Run)>> {
-    let base = |inp: &InputRef| inp.id.rsplit_once("-energies_mgd").map(|(b, _)| b.to_string());
-    let mut out: Vec<(&InputRef, Run)> = Vec::new();
-    for inp in ctx.inputs_of("runs") {
-        let r = run_of(inp)?;
-        match out.last_mut() {
-            Some((prev, acc)) if base(prev).is_some() && base(prev) == base(inp) => {
-                acc.e.extend(r.e);
-                acc.dl.extend(r.dl);
-                acc.tf.extend(r.tf);
-            }
-            _ => out.push((inp, r)),
+    let mut out = Vec::new();
+    for group in super::members::by_stage(ctx.inputs_of("runs")) {
+        let mut acc = run_of(group[0])?;
+        for inp in &group[1..] {
+            let r = run_of(inp)?;
+            acc.e.extend(r.e);
+            acc.dl.extend(r.dl);
+            acc.tf.extend(r.tf);
         }
-    }
-    for (_, r) in &mut out {
-        let mut order: Vec<usize> = (0..r.e.len()).collect();
-        order.sort_by(|&a, &b| r.e[a].total_cmp(&r.e[b]));
-        for v in [&mut r.e, &mut r.dl, &mut r.tf] {
+        let order = super::members::energy_order(&acc.e);
+        for v in [&mut acc.e, &mut acc.dl, &mut acc.tf] {
             *v = order.iter().map(|&i| v[i]).collect();
         }
+        out.push((group[0], acc));
     }
     Ok(out)
 }

@@ -7,6 +7,7 @@ pub mod common;
 pub mod compare;
 pub mod energy_runout;
 pub mod grain_pile;
+pub mod members;
 pub mod mpm_pile;
 pub mod packing;
 pub mod prep;

@@ -47,16 +47,6 @@ struct MethodData {
     vs: Vec<f64>,
 }
 
-impl MethodData {
-    fn sort_by_energy(&mut self) {
-        let mut order: Vec<usize> = (0..self.e.len()).collect();
-        order.sort_by(|&a, &b| self.e[a].total_cmp(&self.e[b]));
-        for v in [&mut self.e, &mut self.dl, &mut self.lf, &mut self.tf, &mut self.vs] {
-            *v = order.iter().map(|&i| v[i]).collect();
-        }
-    }
-}
-
 fn fit_row(
     rows: &mut Vec<(String, String, String, f64, f64, f64, usize)>,
     m: Method,
@@ -100,29 +90,27 @@ fn exponent_claim(id: &str, statement: &str, paper: f64, paper_se: f64, f: Optio
 
 fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
     let p: RunoutParams = decode(ctx)?;
-    // One series per method: the runs of a method split over several stages (a matrix
-    // over `energies_mgd`, one energy per member) join here, sorted by energy.
+    // One series per pile-run stage: the members of an `energies_mgd` sweep (one energy
+    // each) join into one, sorted by energy (super::members).
     let mut data: Vec<MethodData> = Vec::new();
-    for inp in ctx.inputs_of("runs") {
+    for group in super::members::by_stage(ctx.inputs_of("runs")) {
+        let inp = group[0];
         let method: Method = serde_json::from_value(inp.params.get("method").cloned().unwrap_or_default())
             .map_err(|e| anyhow::anyhow!("input `{}` is not a pile-run: {e}", inp.id))?;
-        let df = inp.table("table")?;
-        let at = match data.iter().position(|d| d.method == method) {
-            Some(i) => i,
-            None => {
-                data.push(MethodData { method, e: vec![], dl: vec![], lf: vec![], tf: vec![], vs: vec![] });
-                data.len() - 1
-            }
-        };
-        let d = &mut data[at];
-        d.e.extend(col_f64(&df, "e0_mgd")?);
-        d.dl.extend(col_f64(&df, "dl")?);
-        d.lf.extend(col_f64(&df, "lf_d")?);
-        d.tf.extend(col_f64(&df, "tf")?);
-        d.vs.extend(col_f64(&df, "vs")?);
-    }
-    for d in &mut data {
-        d.sort_by_energy();
+        let mut d = MethodData { method, e: vec![], dl: vec![], lf: vec![], tf: vec![], vs: vec![] };
+        for inp in group {
+            let df = inp.table("table")?;
+            d.e.extend(col_f64(&df, "e0_mgd")?);
+            d.dl.extend(col_f64(&df, "dl")?);
+            d.lf.extend(col_f64(&df, "lf_d")?);
+            d.tf.extend(col_f64(&df, "tf")?);
+            d.vs.extend(col_f64(&df, "vs")?);
+        }
+        let order = super::members::energy_order(&d.e);
+        for v in [&mut d.e, &mut d.dl, &mut d.lf, &mut d.tf, &mut d.vs] {
+            *v = order.iter().map(|&i| v[i]).collect();
+        }
+        data.push(d);
     }
     let split = p.split_mgd;
     let mut rows = Vec::new();
