@@ -198,10 +198,7 @@ fn joined_runs(ctx: &StageCtx) -> anyhow::Result<Vec<(&InputRef, Run)>> {
             acc.dl.extend(r.dl);
             acc.tf.extend(r.tf);
         }
-        let order = super::members::energy_order(&acc.e);
-        for v in [&mut acc.e, &mut acc.dl, &mut acc.tf] {
-            *v = order.iter().map(|&i| v[i]).collect();
-        }
+        super::members::sort_by_energy(&mut acc.e, &mut [&mut acc.dl, &mut acc.tf]);
         out.push((group[0], acc));
     }
     Ok(out)

@@ -23,11 +23,14 @@ pub fn by_stage(inputs: &[InputRef]) -> Vec<Vec<&InputRef>> {
     out
 }
 
-/// The order that sorts `e` ascending (to sort a joined run's columns by energy).
-pub fn energy_order(e: &[f64]) -> Vec<usize> {
+/// Sort a joined run by energy: `e` ascending, and every column of `cols` (one value per
+/// energy) in the same order.
+pub fn sort_by_energy(e: &mut Vec<f64>, cols: &mut [&mut Vec<f64>]) {
     let mut order: Vec<usize> = (0..e.len()).collect();
     order.sort_by(|&a, &b| e[a].total_cmp(&e[b]));
-    order
+    for v in std::iter::once(e).chain(cols.iter_mut().map(|c| &mut **c)) {
+        *v = order.iter().map(|&i| v[i]).collect();
+    }
 }
 
 #[cfg(test)]

@@ -106,10 +106,7 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
             d.tf.extend(col_f64(&df, "tf")?);
             d.vs.extend(col_f64(&df, "vs")?);
         }
-        let order = super::members::energy_order(&d.e);
-        for v in [&mut d.e, &mut d.dl, &mut d.lf, &mut d.tf, &mut d.vs] {
-            *v = order.iter().map(|&i| v[i]).collect();
-        }
+        super::members::sort_by_energy(&mut d.e, &mut [&mut d.dl, &mut d.lf, &mut d.tf, &mut d.vs]);
         data.push(d);
     }
     let split = p.split_mgd;
