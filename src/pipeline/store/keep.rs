@@ -143,7 +143,11 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
             for f in sorted_files(&set)? {
                 let bytes = fsio::read(&set.join(&f))?;
                 let n = bytes.len() as u64;
-                let csv_cap = if f.ends_with(".csv") { caps.csv } else { caps.of(&f) };
+                let csv_cap = if f.ends_with(".csv") {
+                    caps.csv_of(&s.id, &f)
+                } else {
+                    caps.of(&f)
+                };
                 if f.ends_with(".parquet") {
                     continue; // the store holds the tables
                 }
@@ -232,7 +236,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     continue;
                 }
                 let size = std::fs::metadata(dir.join(&n)).map(|m| m.len()).unwrap_or(0);
-                if n.ends_with(".csv") && size > caps.csv {
+                if n.ends_with(".csv") && size > caps.csv_of(&s.id, &n) {
                     out.left_out.push((s.id.clone(), n.clone(), size));
                     l.left_out.insert(n, h);
                     continue;
