@@ -1,8 +1,10 @@
 //! Build script: hashes the crate's sources into the binary, so that a result kept for
 //! months can say which code built it (the results lock, `granrepro status --profile paper`).
 //!
-//! For each file of `src/` it records the file's BLAKE3 hash and the files it imports (the
-//! import graph of `src/provenance/imports.rs`, included here as is), and `Cargo.lock`'s
+//! For each file of `src/` it records the file's BLAKE3 hash and the files it is built from:
+//! those it imports (the import graph of `src/provenance/imports.rs`, included here as is)
+//! and, for each type it defines, the files holding that type's `impl` blocks
+//! (`imports::impl_edges`: a method call names no file), and `Cargo.lock`'s
 //! hash (the dependencies' versions are code too). `granrepro::provenance::sources` reads
 //! the table and gives each stage kind the closure of its declaring file.
 
@@ -20,6 +22,9 @@ fn main() {
     let root = Path::new(&manifest);
     let src = root.join("src");
     let g = imports::Graph::build(&src);
+    // A file that uses a type is built from the files holding its `impl` blocks too (a
+    // method call names no file): those edges join the import edges in each closure.
+    let impls = imports::impl_edges(&g, &src);
     let files: Vec<_> = g.module_of.keys().cloned().collect();
     let index: std::collections::BTreeMap<_, _> = files.iter().enumerate().map(|(i, f)| (f.clone(), i)).collect();
     let rel = |f: &Path| f.strip_prefix(root).unwrap_or(f).to_string_lossy().replace('\\', "/");
@@ -30,11 +35,14 @@ fn main() {
          pub static FILES: &[(&str, &str, &[usize])] = &[\n",
     );
     for f in &files {
-        let deps: Vec<String> = g
+        let targets: std::collections::BTreeSet<&std::path::PathBuf> = g
             .edges
             .get(f)
-            .map(|e| e.keys().filter_map(|t| index.get(t)).map(|i| i.to_string()).collect())
-            .unwrap_or_default();
+            .into_iter()
+            .flat_map(|e| e.keys())
+            .chain(impls.get(f).into_iter().flatten())
+            .collect();
+        let deps: Vec<String> = targets.into_iter().filter_map(|t| index.get(t)).map(|i| i.to_string()).collect();
         writeln!(out, "    ({:?}, {:?}, &[{}]),", rel(f), hash(f), deps.join(", ")).unwrap();
     }
     out.push_str("];\n");

@@ -336,6 +336,12 @@ pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f
                 k.bytes as f64 / 1048576.0,
                 dir.display()
             );
+            if !k.widened.is_empty() {
+                println!(
+                    "  source closure widened to this build's for {} carried stage(s): the files it adds are unchanged (git) since their runs",
+                    k.widened.len()
+                );
+            }
             if !k.not_current.is_empty() {
                 println!(
                     "  carried but not current (shown marked, judged as not run; `granrepro status --profile {}`): {}",

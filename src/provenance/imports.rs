@@ -454,3 +454,133 @@ pub fn without_pub_use(code: &str) -> String {
     out.push_str(rest);
     out
 }
+
+/// Where a type's methods live when they are not beside it: for each file `d` that defines
+/// a type (`struct`, `enum`, `union`, `type` at the start of a line), the other files that
+/// hold an `impl` block for that name (`impl N`, `impl T for N`, with any generics and path)
+/// and import `d` (an `impl` names its type, so its file imports the type's file; that
+/// keeps two types of one name in different modules apart; a file's `impl N` of an `N` it
+/// defines itself is its own). The import graph follows
+/// names; a method call (`p.engine()`) names no file, so the results lock adds these edges
+/// to each kind's source closure: a file that uses a type is built from its impls too.
+pub fn impl_edges(g: &Graph, root: &Path) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
+    let mut files = Vec::new();
+    rust_files(root, &mut files);
+    let mut defines: BTreeMap<String, BTreeSet<PathBuf>> = BTreeMap::new();
+    let mut impls: Vec<(PathBuf, String)> = Vec::new();
+    for f in &files {
+        let code = code_of(&std::fs::read_to_string(f).unwrap_or_default());
+        for line in code.lines() {
+            let t = strip_item_prefix(line.trim_start());
+            for kw in ["struct ", "enum ", "union ", "type "] {
+                if let Some(rest) = t.strip_prefix(kw) {
+                    let name: String = rest.chars().take_while(|c| is_ident(*c)).collect();
+                    if !name.is_empty() {
+                        defines.entry(name).or_default().insert(f.clone());
+                    }
+                }
+            }
+            if let Some(name) = impl_self_type(t) {
+                impls.push((f.clone(), name));
+            }
+        }
+    }
+    let mut edges: BTreeMap<PathBuf, BTreeSet<PathBuf>> = BTreeMap::new();
+    for (f, name) in impls {
+        let here = defines.get(&name).is_some_and(|ds| ds.contains(&f));
+        if here {
+            continue; // `impl N` of the file's own N, which shadows any imported one
+        }
+        for d in defines.get(&name).into_iter().flatten() {
+            if *d != f && g.edges.get(&f).is_some_and(|e| e.contains_key(d)) {
+                edges.entry(d.clone()).or_default().insert(f.clone());
+            }
+        }
+    }
+    edges
+}
+
+/// A line without its leading visibility and `unsafe`/`default` qualifiers.
+fn strip_item_prefix(mut t: &str) -> &str {
+    loop {
+        let before = t;
+        for p in ["pub(crate) ", "pub(super) ", "pub ", "unsafe ", "default "] {
+            if let Some(r) = t.strip_prefix(p) {
+                t = r.trim_start();
+            }
+        }
+        if t == before {
+            return t;
+        }
+    }
+}
+
+/// The self type's name of an `impl` header line (`impl<'a, T: X> Tr<U> for a::B<'a> {` →
+/// `B`), or None when the line is not one.
+pub fn impl_self_type(t: &str) -> Option<String> {
+    let rest = t.strip_prefix("impl")?;
+    if !(rest.starts_with(' ') || rest.starts_with('<')) {
+        return None;
+    }
+    // skip the impl's own generics
+    let mut s = rest.trim_start();
+    if s.starts_with('<') {
+        let mut depth = 0usize;
+        let mut end = s.len();
+        for (i, c) in s.char_indices() {
+            match c {
+                '<' => depth += 1,
+                '>' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        end = i + 1;
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        s = s[end..].trim_start();
+    }
+    // the header up to `{` or `where`, and in it the part after a top-level ` for `
+    let head = s.split(['{']).next().unwrap_or(s);
+    let head = head.split(" where").next().unwrap_or(head);
+    let mut depth = 0usize;
+    let mut self_start = 0;
+    let hb = head.as_bytes();
+    for i in 0..hb.len() {
+        match hb[i] {
+            b'<' => depth += 1,
+            b'>' => depth = depth.saturating_sub(1),
+            b' ' if depth == 0 && head[i..].starts_with(" for ") => self_start = i + 5,
+            _ => {}
+        }
+    }
+    let ty = head[self_start..].trim_start().trim_start_matches(['&', '*']).trim_start();
+    let ty = ty.strip_prefix("mut ").unwrap_or(ty).trim_start();
+    let ty = ty.strip_prefix("dyn ").unwrap_or(ty);
+    let path: String = ty.chars().take_while(|c| is_ident(*c) || *c == ':').collect();
+    let name = path.rsplit("::").next().unwrap_or("").to_string();
+    (!name.is_empty() && name.chars().next().is_some_and(|c| c.is_ascii_uppercase())).then_some(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::impl_self_type;
+
+    #[test]
+    fn the_self_type_of_an_impl_header() {
+        let t = |s: &str| impl_self_type(s);
+        assert_eq!(t("impl RunParams {"), Some("RunParams".into()));
+        assert_eq!(t("impl<'a> PileEngine for CdPile<'a> {"), Some("CdPile".into()));
+        assert_eq!(t("impl<T: Copy> fmt::Display for crate::dem::World<T> where T: X {"), Some("World".into()));
+        assert_eq!(t("impl Validate for Params {"), Some("Params".into()));
+        assert_eq!(t("impl<T> From<Vec<T>> for Series {"), Some("Series".into()));
+        assert_eq!(t("impl Iterator for &mut Walker {"), Some("Walker".into()));
+        // not an impl block
+        assert_eq!(t("fn f(x: impl Fn(f64)) -> f64 {"), None);
+        assert_eq!(t("implicit: bool,"), None);
+        // a foreign type has a lower-case or no name we define
+        assert_eq!(t("impl<T> Trait for f64 {"), None);
+    }
+}

@@ -77,6 +77,39 @@ mod tests {
         }
     }
 
+    /// A kind is built from its engine, also where the engine is reached by a method call
+    /// and not by a name: `pile-run` calls `p.engine()`, an `impl RunParams` in
+    /// grain_pile.rs, whose CD and DEM adapters step `cd::World` and `dem::World` (impls in
+    /// cd/world.rs, dem/integrate.rs). Before the closure followed `impl` blocks, the
+    /// pile-run closure held none of these files (only cd/{body, error, params,
+    /// preflight}.rs of the CD), and the column-collapse closure lacked the DEM step
+    /// (dem/integrate.rs): a change there left the committed results "fresh".
+    #[test]
+    fn a_kind_closure_holds_the_engine_it_calls_through_methods() {
+        let pile = closure("src/stages/pile/run.rs").unwrap();
+        for f in [
+            "src/stages/pile/grain_pile.rs",
+            "src/stages/pile/mpm_pile.rs",
+            "src/cd/world.rs",
+            "src/cd/solver.rs",
+            "src/cd/contacts.rs",
+            "src/cd/pile.rs",
+            "src/dem/integrate.rs",
+            "src/mpm/solver.rs",
+        ] {
+            assert!(pile.contains_key(f), "pile-run's closure lacks {f}");
+        }
+        let column = closure("src/stages/column/collapse.rs").unwrap();
+        for f in ["src/dem/integrate.rs", "src/dem/world/schedule.rs", "src/mpm/solver.rs"] {
+            assert!(column.contains_key(f), "column-collapse's closure lacks {f}");
+        }
+        // and not the pipeline's plumbing, which computes no result (a name collision, the
+        // ledger's own `enum Kind` with its `impl Kind`, used to pull it in)
+        for f in ["src/claims/ledger.rs", "src/pipeline/spec.rs", "src/pipeline/yaml.rs"] {
+            assert!(!pile.contains_key(f), "pile-run's closure holds {f}");
+        }
+    }
+
     #[test]
     fn the_table_hashes_the_files_as_they_are_on_disk() {
         // The build script re-runs on any change under src/, so the table is the tree's.

@@ -22,6 +22,9 @@ pub struct Kept {
     pub carried: Vec<String>,
     /// Stages with nothing to keep.
     pub missing: Vec<String>,
+    /// Carried stages whose recorded source closure grew to this build's, the files it adds
+    /// unchanged since their run ([`super::widen`]).
+    pub widened: Vec<String>,
     /// Carried from the former lock but no longer current (stale, changed code, corrupt).
     pub not_current: Vec<String>,
     /// Files left out: (stage, name, bytes).
@@ -117,12 +120,18 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 left_out: BTreeMap::new(),
                 // The closure the entry was computed by (its run record); an entry older
                 // than that record field is locked with this build's.
-                sources: built_by(&entry).unwrap_or_else(|| {
-                    kinds
-                        .get(s.kind.as_str())
-                        .and_then(|k| sources::closure(k.source))
-                        .unwrap_or_default()
-                }),
+                sources: {
+                    let now = kinds.get(s.kind.as_str()).and_then(|k| sources::closure(k.source));
+                    match (built_by(&entry), now) {
+                        // recorded by an older closure rule: this build's, where git shows
+                        // the files it adds unchanged since the run (super::widen)
+                        (Some(rec), Some(now)) => {
+                            super::widen::widened(&proj.root, &rec, &now, started_at(&entry)).unwrap_or(rec)
+                        }
+                        (Some(rec), None) => rec,
+                        (None, now) => now.unwrap_or_default(),
+                    }
+                },
                 wall_s: None,
                 closure: None,
             };
@@ -179,6 +188,12 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
         } else if let Some(l) = old.stages.get(&s.id) {
             let (from, to) = (dir.join(STORE).join(&l.key), st.join(STORE).join(&l.key));
             let mut l = l.clone();
+            if let Some(now) = kinds.get(s.kind.as_str()).and_then(|k| sources::closure(k.source))
+                && let Some(w) = super::widen::widened(&proj.root, &l.sources, &now, started_at(&from))
+            {
+                l.sources = w;
+                out.widened.push(s.id.clone());
+            }
             // The figure cap applies to what is carried too: a store figure over it (kept
             // under an older, larger cap) leaves the store, hash kept, and is published in
             // its compact form; the entry's manifest no longer lists it.
@@ -304,6 +319,12 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
 }
 
 /// The source closure recorded by the run that made the cache entry in `dir`.
+/// When the run of the entry at `dir` started [Unix s] (its run record).
+fn started_at(dir: &Path) -> Option<f64> {
+    let rec: Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()?;
+    rec.get("started_unix_s")?.as_f64()
+}
+
 fn built_by(dir: &Path) -> Option<BTreeMap<String, String>> {
     let rec: Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()?;
     serde_json::from_value(rec.get("sources")?.clone()).ok()

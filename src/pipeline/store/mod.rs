@@ -575,6 +575,7 @@ pub fn committed_dirs(p: &Pipeline) -> anyhow::Result<Vec<(PathBuf, Lock)>> {
 }
 
 mod keep;
+mod widen;
 pub use keep::{Kept, keep, keep_dir};
 
 #[cfg(test)]

@@ -1,0 +1,89 @@
+//! A result's recorded source closure when the closure rule has grown since it was built.
+//!
+//! The lock records, per kept stage, the files its kind was built from
+//! (`crate::provenance::sources::closure`). When the rule that computes a closure finds more
+//! files than it used to (it learnt to follow `impl` blocks, say), a result kept earlier lists
+//! fewer files than this build computes, and `status` would call it "built from changed
+//! code" although no file changed. The added files' contents at build time were never
+//! recorded; git knows them. A recorded closure is widened to this build's when:
+//! - every file it records has the hash this build has (nothing recorded has changed), and
+//! - no commit since the run started touched any added file, and the work tree has none of
+//!   them modified (`git log --since`, `git status --porcelain`).
+//!
+//! Otherwise (a file changed, no git, not a repository) the recorded closure stays, and
+//! `status` says what differs: never fresher than the evidence.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+/// This build's closure `now` for a result recorded with `recorded`, run at `started_unix_s`
+/// in the repository at `root`, when the difference is files added to the rule and git shows
+/// them unchanged since; None otherwise.
+pub fn widened(
+    root: &Path,
+    recorded: &BTreeMap<String, String>,
+    now: &BTreeMap<String, String>,
+    started_unix_s: Option<f64>,
+) -> Option<BTreeMap<String, String>> {
+    let added = only_added(recorded, now)?;
+    let since = started_unix_s.filter(|t| t.is_finite() && *t > 0.0)?;
+    unchanged_since(root, &added, since).then(|| now.clone())
+}
+
+/// The files `now` holds and `recorded` does not, when every recorded file has its hash in
+/// `now` and there is at least one; None otherwise.
+pub fn only_added(recorded: &BTreeMap<String, String>, now: &BTreeMap<String, String>) -> Option<Vec<String>> {
+    if recorded.is_empty() || recorded.iter().any(|(p, h)| now.get(p) != Some(h)) {
+        return None;
+    }
+    let added: Vec<String> = now.keys().filter(|p| !recorded.contains_key(*p)).cloned().collect();
+    (!added.is_empty()).then_some(added)
+}
+
+/// Did no commit after `since` (Unix seconds) touch `files`, and does the work tree hold
+/// them as committed? False when git cannot tell.
+fn unchanged_since(root: &Path, files: &[String], since: f64) -> bool {
+    let paths: Vec<&String> = files.iter().filter(|f| f.as_str() != crate::provenance::sources::CARGO_LOCK).collect();
+    let cargo_lock = files.iter().any(|f| f.as_str() == crate::provenance::sources::CARGO_LOCK);
+    let mut all: Vec<&str> = paths.iter().map(|s| s.as_str()).collect();
+    if cargo_lock {
+        all.push("Cargo.lock");
+    }
+    let git = |args: &[&str]| -> Option<String> {
+        let out = Command::new("git").arg("-C").arg(root).args(args).output().ok()?;
+        out.status.success().then(|| String::from_utf8_lossy(&out.stdout).into_owned())
+    };
+    let since_arg = format!("--since=@{}", since.floor() as i64);
+    let mut log = vec!["log", "--format=%H", since_arg.as_str(), "--"];
+    log.extend(&all);
+    let mut st = vec!["status", "--porcelain", "--"];
+    st.extend(&all);
+    matches!((git(&log), git(&st)), (Some(l), Some(s)) if l.trim().is_empty() && s.trim().is_empty())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::only_added;
+    use std::collections::BTreeMap;
+
+    fn m(v: &[(&str, &str)]) -> BTreeMap<String, String> {
+        v.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
+    }
+
+    #[test]
+    fn only_a_pure_addition_is_a_widening() {
+        let rec = m(&[("src/a.rs", "1"), ("src/b.rs", "2")]);
+        assert_eq!(
+            only_added(&rec, &m(&[("src/a.rs", "1"), ("src/b.rs", "2"), ("src/c.rs", "3")])),
+            Some(vec!["src/c.rs".to_string()])
+        );
+        // a recorded file changed: not a widening, whatever was added
+        assert_eq!(only_added(&rec, &m(&[("src/a.rs", "1"), ("src/b.rs", "9"), ("src/c.rs", "3")])), None);
+        // a recorded file gone: not a widening
+        assert_eq!(only_added(&rec, &m(&[("src/a.rs", "1"), ("src/c.rs", "3")])), None);
+        // nothing added: nothing to widen
+        assert_eq!(only_added(&rec, &rec), None);
+        assert_eq!(only_added(&m(&[]), &rec), None);
+    }
+}
