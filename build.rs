@@ -24,7 +24,7 @@ fn main() {
     let g = imports::Graph::build(&src);
     // A file that uses a type is built from the files holding its `impl` blocks too (a
     // method call names no file): those edges join the import edges in each closure.
-    let impls = imports::impl_edges(&g, &src);
+    let impls = imports::impl_edges(&g);
     let files: Vec<_> = g.module_of.keys().cloned().collect();
     let index: std::collections::BTreeMap<_, _> = files.iter().enumerate().map(|(i, f)| (f.clone(), i)).collect();
     let rel = |f: &Path| f.strip_prefix(root).unwrap_or(f).to_string_lossy().replace('\\', "/");
@@ -42,7 +42,11 @@ fn main() {
             .flat_map(|e| e.keys())
             .chain(impls.get(f).into_iter().flatten())
             .collect();
-        let deps: Vec<String> = targets.into_iter().filter_map(|t| index.get(t)).map(|i| i.to_string()).collect();
+        let deps: Vec<String> = targets
+            .into_iter()
+            .filter_map(|t| index.get(t))
+            .map(|i| i.to_string())
+            .collect();
         writeln!(out, "    ({:?}, {:?}, &[{}]),", rel(f), hash(f), deps.join(", ")).unwrap();
     }
     out.push_str("];\n");

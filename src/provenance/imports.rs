@@ -151,29 +151,29 @@ fn strip_cfg_test(code: &str) -> String {
     while let Some(k) = rest.find("#[cfg(test)]") {
         out.push_str(&rest[..k]);
         let after = &rest[k..];
-        let mut depth = 0usize;
-        let mut end = after.len();
-        for (j, c) in after.char_indices() {
-            match c {
-                '{' => depth += 1,
-                '}' => {
-                    depth -= 1;
-                    if depth == 0 {
-                        end = j + 1;
-                        break;
-                    }
-                }
-                ';' if depth == 0 => {
-                    end = j + 1;
-                    break;
-                }
-                _ => {}
-            }
-        }
-        rest = &after[end..];
+        rest = &after[group_end(after, '{', '}', true)..];
     }
     out.push_str(rest);
     out
+}
+
+/// The byte just past the group `open … close` that starts `s` (nested groups counted),
+/// or past the first `;` outside any group when `semicolon_ends`; `s.len()` when unclosed.
+fn group_end(s: &str, open: char, close: char, semicolon_ends: bool) -> usize {
+    let mut depth = 0usize;
+    for (j, c) in s.char_indices() {
+        if c == open {
+            depth += 1;
+        } else if c == close {
+            depth = depth.saturating_sub(1);
+            if depth == 0 {
+                return j + c.len_utf8();
+            }
+        } else if c == ';' && semicolon_ends && depth == 0 {
+            return j + 1;
+        }
+    }
+    s.len()
 }
 
 fn is_ident(c: char) -> bool {
@@ -463,12 +463,10 @@ pub fn without_pub_use(code: &str) -> String {
 /// defines itself is its own). The import graph follows
 /// names; a method call (`p.engine()`) names no file, so the results lock adds these edges
 /// to each kind's source closure: a file that uses a type is built from its impls too.
-pub fn impl_edges(g: &Graph, root: &Path) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
-    let mut files = Vec::new();
-    rust_files(root, &mut files);
+pub fn impl_edges(g: &Graph) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
     let mut defines: BTreeMap<String, BTreeSet<PathBuf>> = BTreeMap::new();
     let mut impls: Vec<(PathBuf, String)> = Vec::new();
-    for f in &files {
+    for f in g.module_of.keys() {
         let code = code_of(&std::fs::read_to_string(f).unwrap_or_default());
         for line in code.lines() {
             let t = strip_item_prefix(line.trim_start());
@@ -525,22 +523,7 @@ pub fn impl_self_type(t: &str) -> Option<String> {
     // skip the impl's own generics
     let mut s = rest.trim_start();
     if s.starts_with('<') {
-        let mut depth = 0usize;
-        let mut end = s.len();
-        for (i, c) in s.char_indices() {
-            match c {
-                '<' => depth += 1,
-                '>' => {
-                    depth -= 1;
-                    if depth == 0 {
-                        end = i + 1;
-                        break;
-                    }
-                }
-                _ => {}
-            }
-        }
-        s = s[end..].trim_start();
+        s = s[group_end(s, '<', '>', false)..].trim_start();
     }
     // the header up to `{` or `where`, and in it the part after a top-level ` for `
     let head = s.split(['{']).next().unwrap_or(s);
@@ -556,7 +539,10 @@ pub fn impl_self_type(t: &str) -> Option<String> {
             _ => {}
         }
     }
-    let ty = head[self_start..].trim_start().trim_start_matches(['&', '*']).trim_start();
+    let ty = head[self_start..]
+        .trim_start()
+        .trim_start_matches(['&', '*'])
+        .trim_start();
     let ty = ty.strip_prefix("mut ").unwrap_or(ty).trim_start();
     let ty = ty.strip_prefix("dyn ").unwrap_or(ty);
     let path: String = ty.chars().take_while(|c| is_ident(*c) || *c == ':').collect();
@@ -573,7 +559,10 @@ mod tests {
         let t = |s: &str| impl_self_type(s);
         assert_eq!(t("impl RunParams {"), Some("RunParams".into()));
         assert_eq!(t("impl<'a> PileEngine for CdPile<'a> {"), Some("CdPile".into()));
-        assert_eq!(t("impl<T: Copy> fmt::Display for crate::dem::World<T> where T: X {"), Some("World".into()));
+        assert_eq!(
+            t("impl<T: Copy> fmt::Display for crate::dem::World<T> where T: X {"),
+            Some("World".into())
+        );
         assert_eq!(t("impl Validate for Params {"), Some("Params".into()));
         assert_eq!(t("impl<T> From<Vec<T>> for Series {"), Some("Series".into()));
         assert_eq!(t("impl Iterator for &mut Walker {"), Some("Walker".into()));

@@ -122,11 +122,12 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 // than that record field is locked with this build's.
                 sources: {
                     let now = kinds.get(s.kind.as_str()).and_then(|k| sources::closure(k.source));
-                    match (built_by(&entry), now) {
+                    let run = run_record(&entry);
+                    match (built_by(run.as_ref()), now) {
                         // recorded by an older closure rule: this build's, where git shows
                         // the files it adds unchanged since the run (super::widen)
                         (Some(rec), Some(now)) => {
-                            super::widen::widened(&proj.root, &rec, &now, started_at(&entry)).unwrap_or(rec)
+                            super::widen::widened(&proj.root, &rec, &now, started_at(run.as_ref())).unwrap_or(rec)
                         }
                         (Some(rec), None) => rec,
                         (None, now) => now.unwrap_or_default(),
@@ -189,7 +190,8 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
             let (from, to) = (dir.join(STORE).join(&l.key), st.join(STORE).join(&l.key));
             let mut l = l.clone();
             if let Some(now) = kinds.get(s.kind.as_str()).and_then(|k| sources::closure(k.source))
-                && let Some(w) = super::widen::widened(&proj.root, &l.sources, &now, started_at(&from))
+                && let Some(w) =
+                    super::widen::widened(&proj.root, &l.sources, &now, started_at(run_record(&from).as_ref()))
             {
                 l.sources = w;
                 out.widened.push(s.id.clone());
@@ -318,16 +320,19 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
     Ok(out)
 }
 
-/// The source closure recorded by the run that made the cache entry in `dir`.
-/// When the run of the entry at `dir` started [Unix s] (its run record).
-fn started_at(dir: &Path) -> Option<f64> {
-    let rec: Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()?;
-    rec.get("started_unix_s")?.as_f64()
+/// The run record of the cache entry in `dir`.
+fn run_record(dir: &Path) -> Option<Value> {
+    serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()
 }
 
-fn built_by(dir: &Path) -> Option<BTreeMap<String, String>> {
-    let rec: Value = serde_json::from_slice(&std::fs::read(dir.join("record.json")).ok()?).ok()?;
-    serde_json::from_value(rec.get("sources")?.clone()).ok()
+/// When the run started [Unix s].
+fn started_at(rec: Option<&Value>) -> Option<f64> {
+    rec?.get("started_unix_s")?.as_f64()
+}
+
+/// The source closure the run recorded.
+fn built_by(rec: Option<&Value>) -> Option<BTreeMap<String, String>> {
+    serde_json::from_value(rec?.get("sources")?.clone()).ok()
 }
 
 /// Copy a cache entry into the store by the size policy, with a manifest of what it kept.

@@ -44,15 +44,14 @@ pub fn only_added(recorded: &BTreeMap<String, String>, now: &BTreeMap<String, St
 /// Did no commit after `since` (Unix seconds) touch `files`, and does the work tree hold
 /// them as committed? False when git cannot tell.
 fn unchanged_since(root: &Path, files: &[String], since: f64) -> bool {
-    let paths: Vec<&String> = files.iter().filter(|f| f.as_str() != crate::provenance::sources::CARGO_LOCK).collect();
-    let cargo_lock = files.iter().any(|f| f.as_str() == crate::provenance::sources::CARGO_LOCK);
-    let mut all: Vec<&str> = paths.iter().map(|s| s.as_str()).collect();
-    if cargo_lock {
-        all.push("Cargo.lock");
-    }
+    // Paths from the package root, as git takes them (the closure's `Cargo.lock` entry is
+    // the file's own path).
+    let all: Vec<&str> = files.iter().map(String::as_str).collect();
     let git = |args: &[&str]| -> Option<String> {
         let out = Command::new("git").arg("-C").arg(root).args(args).output().ok()?;
-        out.status.success().then(|| String::from_utf8_lossy(&out.stdout).into_owned())
+        out.status
+            .success()
+            .then(|| String::from_utf8_lossy(&out.stdout).into_owned())
     };
     let since_arg = format!("--since=@{}", since.floor() as i64);
     let mut log = vec!["log", "--format=%H", since_arg.as_str(), "--"];
@@ -79,7 +78,10 @@ mod tests {
             Some(vec!["src/c.rs".to_string()])
         );
         // a recorded file changed: not a widening, whatever was added
-        assert_eq!(only_added(&rec, &m(&[("src/a.rs", "1"), ("src/b.rs", "9"), ("src/c.rs", "3")])), None);
+        assert_eq!(
+            only_added(&rec, &m(&[("src/a.rs", "1"), ("src/b.rs", "9"), ("src/c.rs", "3")])),
+            None
+        );
         // a recorded file gone: not a widening
         assert_eq!(only_added(&rec, &m(&[("src/a.rs", "1"), ("src/c.rs", "3")])), None);
         // nothing added: nothing to widen
