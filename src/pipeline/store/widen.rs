@@ -63,8 +63,59 @@ fn unchanged_since(root: &Path, files: &[String], since: f64) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::only_added;
+    use super::{only_added, widened};
     use std::collections::BTreeMap;
+    use std::path::Path;
+    use std::process::Command;
+
+    /// git in `dir` with a fixed identity and both dates at `unix_s`.
+    fn git(dir: &Path, unix_s: i64, args: &[&str]) {
+        let date = format!("@{unix_s} +0000");
+        let ok = Command::new("git")
+            .arg("-C")
+            .arg(dir)
+            .args(["-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false"])
+            .args(args)
+            .env("GIT_AUTHOR_DATE", &date)
+            .env("GIT_COMMITTER_DATE", &date)
+            .output()
+            .expect("git runs")
+            .status
+            .success();
+        assert!(ok, "git {args:?}");
+    }
+
+    /// A scratch repository: `src/a.rs` (recorded) and `src/c.rs` (added to the rule later),
+    /// both committed at t = 1.0e9 s; the run started at 1.5e9 s.
+    #[test]
+    fn git_decides_whether_the_added_files_are_untouched_since_the_run() {
+        let dir = std::env::temp_dir().join(format!("granrepro-widen-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("src")).unwrap();
+        std::fs::write(dir.join("src/a.rs"), "// a\n").unwrap();
+        std::fs::write(dir.join("src/c.rs"), "// c\n").unwrap();
+        git(&dir, 1_000_000_000, &["init", "-q"]);
+        git(&dir, 1_000_000_000, &["add", "."]);
+        git(&dir, 1_000_000_000, &["commit", "-q", "-m", "one"]);
+        let rec = m(&[("src/a.rs", "1")]);
+        let now = m(&[("src/a.rs", "1"), ("src/c.rs", "3")]);
+        let started = Some(1.5e9);
+        assert_eq!(widened(&dir, &rec, &now, started), Some(now.clone()), "untouched since the run");
+        // no start time on record: no evidence
+        assert_eq!(widened(&dir, &rec, &now, None), None);
+        // the added file edited in the work tree
+        std::fs::write(dir.join("src/c.rs"), "// c, edited\n").unwrap();
+        assert_eq!(widened(&dir, &rec, &now, started), None, "modified in the work tree");
+        // ... and committed after the run started
+        git(&dir, 1_600_000_000, &["commit", "-q", "-am", "two"]);
+        assert_eq!(widened(&dir, &rec, &now, started), None, "committed after the run");
+        // a run that started after that commit: untouched since
+        assert_eq!(widened(&dir, &rec, &now, Some(1.7e9)), Some(now.clone()));
+        // not a repository: git cannot tell
+        std::fs::remove_dir_all(dir.join(".git")).unwrap();
+        assert_eq!(widened(&dir, &rec, &now, Some(1.7e9)), None, "no repository");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     fn m(v: &[(&str, &str)]) -> BTreeMap<String, String> {
         v.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect()
