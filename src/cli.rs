@@ -227,6 +227,10 @@ pub enum Cmd {
         /// Scaling only: the DEM row alone (no MPM, no CD).
         #[arg(long)]
         dem_only: bool,
+        /// cd-dense only: write each timed scene here as CSV (`cd-dense-CASE.csv`: x, y, r, m,
+        /// vx, vy per disk, SI per metre), the input of `bench/siconos/dense.py`.
+        #[arg(long)]
+        scene_out: Option<PathBuf>,
     },
     /// Remove what granrepro made: the cache and state (and with --reports, the files it
     /// published under reports/). Other files are never touched.
@@ -620,6 +624,7 @@ pub fn run_cli(cli: Cli) -> i32 {
             max_n,
             lattice_order,
             dem_only,
+            scene_out,
         } => bench(
             engine,
             steps,
@@ -633,6 +638,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                 max_n,
                 lattice_order,
                 dem_only,
+                scene_out,
             },
         ),
         Cmd::Clean { reports, profile } => clean(&cli.pipeline, &proj, reports, profile.map(ProfileArg::name)),

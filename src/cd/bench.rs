@@ -9,11 +9,16 @@
 //! Alert distance 0.15 d_min: grains of the 20-row drop reach ≈ 10 m/s, 0.02 m per step,
 //! and the pre-flight needs h·v ≤ alert/2.
 
+use crate::analysis::pile::{Profile, excitation};
 use crate::cd::error::CdError;
 use crate::cd::params::CdParams;
-use crate::cd::pile::{DropSpec, drop};
-use crate::cd::world::Timers;
+use crate::cd::pile::{DropSpec, core_packing_fraction, drop, settled_deposit};
+use crate::cd::world::{Timers, World};
+use crate::dem::state::State;
+use crate::dem::walls::Wall;
+use crate::math::Real;
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 
 /// One measurement.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -96,4 +101,117 @@ pub fn run(ncol: usize, nrow: usize, threads: usize, steps: u64) -> Result<Bench
             timers: r.timers,
         })
     })
+}
+
+/// The dense scenes of `bench cd-dense`: the pile and the shear cell are dense packings, where
+/// every grain carries contacts and Gauss–Seidel needs many sweeps, unlike the loose drop of
+/// [`run`]. The `ncol × nrow` deposit of [`run`] (same disks, walls and contact law) is settled
+/// for `settle_s` seconds (untimed, [`settled_deposit`]) and stopped. With `kick_mgd > 0` every
+/// grain then gets the pile's gradient excitation (D19, [`excitation`]: v_x ∝ y_max − y) of
+/// E_0 = kick_mgd · M g d̄, M the total mass: the chapter's pile scene in miniature.
+pub fn dense_scene(ncol: usize, nrow: usize, settle_s: Real, kick_mgd: Real) -> Result<(State, Vec<Wall>), CdError> {
+    let spec = DropSpec {
+        ncol,
+        nrow,
+        scale: 1.0,
+        seed: 1,
+    };
+    let params = siconos_params();
+    let (mut st, walls) = settled_deposit(&spec, &params, settle_s)?;
+    if kick_mgd > 0.0 {
+        let m: Real = st.m.iter().sum();
+        let dbar = 2.0 * st.r.iter().sum::<Real>() / st.len() as Real;
+        let top = st.y.iter().zip(&st.r).map(|(y, r)| y + r).fold(Real::MIN, Real::max);
+        st.vx = excitation(
+            Profile::Gradient,
+            &st.y,
+            &st.m,
+            top,
+            kick_mgd * m * params.gravity * dbar,
+        );
+    }
+    Ok((st, walls))
+}
+
+/// Time `steps` steps of a scene from [`dense_scene`] in a pool of `threads` (box width
+/// `width`, for the packing fraction).
+pub fn run_scene(
+    case: &str,
+    scene: &(State, Vec<Wall>),
+    width: Real,
+    threads: usize,
+    steps: u64,
+) -> Result<BenchResult, CdError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CdError::Setup(e.to_string()))?;
+    pool.install(|| {
+        let params = siconos_params();
+        let mut w = World::new(params.clone(), scene.0.clone(), scene.1.clone(), None)?;
+        let t0 = Instant::now();
+        let mut csum = 0.0;
+        for _ in 0..steps {
+            csum += w.step()?.contacts as Real;
+        }
+        let wall_s = t0.elapsed().as_secs_f64();
+        let s = &w.state;
+        let e = w.energies();
+        let m: Real = s.m.iter().sum();
+        let dbar = 2.0 * s.r.iter().sum::<Real>() / s.len() as Real;
+        Ok(BenchResult {
+            case: case.to_string(),
+            threads,
+            particles: s.len(),
+            contacts: csum / steps.max(1) as Real,
+            contacts_last: w.last.contacts,
+            steps: w.stats.steps,
+            iterations: w.stats.iterations,
+            wall_s,
+            contact_iterations_per_s: w.stats.contact_iterations as f64 / wall_s,
+            unconverged: w.stats.unconverged,
+            max_residual: w.stats.max_residual,
+            packing_fraction: core_packing_fraction(&s.x, &s.y, &s.r, width),
+            ke_over_mgd: (e.ek + e.erot) / (m * params.gravity * dbar),
+            timers: w.timers,
+        })
+    })
+}
+
+/// Box width of the `ncol`-column deposit [m].
+pub fn deposit_width(ncol: usize) -> Real {
+    DropSpec {
+        ncol,
+        nrow: 1,
+        scale: 1.0,
+        seed: 1,
+    }
+    .width()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dense scene is dense (the settled deposit: every grain in contact, packing above
+    /// the loose drop's) and its kick carries exactly E_0, so the benchmark times what it says.
+    #[test]
+    fn the_dense_scene_is_settled_and_kicked_with_its_energy() {
+        let (st, _) = dense_scene(10, 8, 2.0, 0.0).unwrap();
+        assert!(st.vx.iter().chain(&st.vy).all(|v| *v == 0.0), "stopped");
+        let r = run_scene("t", &dense_scene(10, 8, 2.0, 0.0).unwrap(), deposit_width(10), 1, 5).unwrap();
+        assert!(
+            r.contacts >= 1.5 * r.particles as f64,
+            "contacts {} for {} disks",
+            r.contacts,
+            r.particles
+        );
+        assert!(r.ke_over_mgd < 1e-3, "at rest: {}", r.ke_over_mgd);
+        let (k, _) = dense_scene(10, 8, 2.0, 13.0).unwrap();
+        let m: Real = k.m.iter().sum();
+        let dbar = 2.0 * k.r.iter().sum::<Real>() / k.len() as Real;
+        let ek: Real = k.m.iter().zip(&k.vx).map(|(m, v)| 0.5 * m * v * v).sum();
+        let want = 13.0 * m * siconos_params().gravity * dbar;
+        assert!((ek - want).abs() <= 1e-9 * want, "E_0 {ek} against {want}");
+    }
 }

@@ -47,6 +47,10 @@ pub enum BenchEngine {
     Mpm,
     /// CD deposit of the Siconos reference script (25 × 20 and 40 × 25 disks, h = 2e-3 s).
     Cd,
+    /// CD on dense packings: the 40 × 25 deposit settled (untimed), timed at rest and kicked
+    /// with the pile's gradient excitation at 13 mgd (`--scene-out DIR` writes both scenes as
+    /// CSV for `bench/siconos/dense.py`).
+    CdDense,
     /// Cost growth: wall time per step against grain / point count (1e3 … 1e5; the DEM to
     /// 1e6 with `--max-n 1000000`) for DEM, CD and MPM, one thread, the DEM's grains
     /// shuffled (`--lattice-order`: as built); a table, JSON lines and `--svg FILE`.

@@ -16,6 +16,7 @@ pub struct BenchOpts {
     pub(super) max_n: usize,
     pub(super) lattice_order: bool,
     pub(super) dem_only: bool,
+    pub(super) scene_out: Option<PathBuf>,
 }
 
 /// A LAMMPS-style timer table: section, seconds, share of the total.
@@ -160,6 +161,7 @@ pub(super) fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i
             }
             0
         }
+        BenchEngine::CdDense => bench_cd_dense(steps.unwrap_or(400), &threads, o),
         BenchEngine::Mpm => {
             for &t in &threads {
                 let mut best: Option<crate::mpm::bench::BenchResult> = None;
@@ -438,6 +440,59 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
             Err(e) => {
                 eprintln!("error: {}: {e}", path.display());
                 return 1;
+            }
+        }
+    }
+    0
+}
+
+/// `bench cd-dense`: the CD engine on the dense deposit, at rest and kicked (13 mgd), one
+/// JSON line per case and thread count with contact·iterations/s and sweeps per step.
+fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
+    use crate::cd::bench::{dense_scene, deposit_width, run_scene};
+    let (ncol, nrow, settle_s) = (40, 25, 6.0);
+    for (case, kick) in [("rest", 0.0), ("kick13mgd", 13.0)] {
+        let scene = match dense_scene(ncol, nrow, settle_s, kick) {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("error: bench cd-dense: {e}");
+                return 1;
+            }
+        };
+        let name = format!("dense-{ncol}x{nrow}-{case}");
+        if let Some(dir) = &o.scene_out {
+            let path = dir.join(format!("cd-{name}.csv"));
+            let st = &scene.0;
+            let mut csv = String::from("x,y,r,m,vx,vy\n");
+            for i in 0..st.len() {
+                csv.push_str(&format!(
+                    "{:e},{:e},{:e},{:e},{:e},{:e}\n",
+                    st.x[i], st.y[i], st.r[i], st.m[i], st.vx[i], st.vy[i]
+                ));
+            }
+            if let Err(e) = std::fs::create_dir_all(dir).and_then(|_| std::fs::write(&path, csv)) {
+                eprintln!("error: bench cd-dense: writing {}: {e}", path.display());
+                return 2;
+            }
+        }
+        for &t in threads {
+            match run_scene(&name, &scene, deposit_width(ncol), t, steps) {
+                Ok(r) => println!(
+                    "{}",
+                    serde_json::json!({
+                        "bench": "cd-dense", "case": r.case, "threads": r.threads, "particles": r.particles,
+                        "contacts": r.contacts, "contacts_last": r.contacts_last, "steps": r.steps,
+                        "iterations": r.iterations, "sweeps_per_step": r.iterations as f64 / r.steps.max(1) as f64,
+                        "wall_s": r.wall_s, "contact_iterations_per_s": r.contact_iterations_per_s,
+                        "unconverged": r.unconverged, "max_residual": r.max_residual,
+                        "packing_fraction": r.packing_fraction, "ke_over_mgd": r.ke_over_mgd,
+                        "detect_s": r.timers.detect, "solve_s": r.timers.solve, "update_s": r.timers.update,
+                    })
+                ),
+                Err(e) => {
+                    eprintln!("error: bench cd-dense: {e}");
+                    return 1;
+                }
             }
         }
     }
