@@ -141,17 +141,7 @@ pub(super) fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i
             for (ncol, nrow) in [(25, 20), (40, 25)] {
                 for &t in &threads {
                     match crate::cd::bench::run(ncol, nrow, t, steps) {
-                        Ok(r) => println!(
-                            "{}",
-                            serde_json::json!({
-                                "bench": "cd-pile", "case": r.case, "threads": r.threads, "particles": r.particles,
-                                "contacts": r.contacts, "contacts_last": r.contacts_last, "steps": r.steps,
-                                "iterations": r.iterations, "wall_s": r.wall_s, "contact_iterations_per_s": r.contact_iterations_per_s,
-                                "unconverged": r.unconverged, "max_residual": r.max_residual,
-                                "packing_fraction": r.packing_fraction, "ke_over_mgd": r.ke_over_mgd,
-                                "detect_s": r.timers.detect, "solve_s": r.timers.solve, "update_s": r.timers.update,
-                            })
-                        ),
+                        Ok(r) => println!("{}", cd_line("cd-pile", &r)),
                         Err(e) => {
                             eprintln!("error: bench cd: {e}");
                             return 1;
@@ -477,18 +467,11 @@ fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
         }
         for &t in threads {
             match run_scene(&name, &scene, deposit_width(ncol), t, steps) {
-                Ok(r) => println!(
-                    "{}",
-                    serde_json::json!({
-                        "bench": "cd-dense", "case": r.case, "threads": r.threads, "particles": r.particles,
-                        "contacts": r.contacts, "contacts_last": r.contacts_last, "steps": r.steps,
-                        "iterations": r.iterations, "sweeps_per_step": r.iterations as f64 / r.steps.max(1) as f64,
-                        "wall_s": r.wall_s, "contact_iterations_per_s": r.contact_iterations_per_s,
-                        "unconverged": r.unconverged, "max_residual": r.max_residual,
-                        "packing_fraction": r.packing_fraction, "ke_over_mgd": r.ke_over_mgd,
-                        "detect_s": r.timers.detect, "solve_s": r.timers.solve, "update_s": r.timers.update,
-                    })
-                ),
+                Ok(r) => {
+                    let mut line = cd_line("cd-dense", &r);
+                    line["sweeps_per_step"] = serde_json::json!(r.iterations as f64 / r.steps.max(1) as f64);
+                    println!("{line}")
+                }
                 Err(e) => {
                     eprintln!("error: bench cd-dense: {e}");
                     return 1;
@@ -497,4 +480,16 @@ fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
         }
     }
     0
+}
+
+/// The JSON line of one CD measurement (`bench cd`, `bench cd-dense`).
+fn cd_line(bench: &str, r: &crate::cd::bench::BenchResult) -> serde_json::Value {
+    serde_json::json!({
+        "bench": bench, "case": r.case, "threads": r.threads, "particles": r.particles,
+        "contacts": r.contacts, "contacts_last": r.contacts_last, "steps": r.steps,
+        "iterations": r.iterations, "wall_s": r.wall_s, "contact_iterations_per_s": r.contact_iterations_per_s,
+        "unconverged": r.unconverged, "max_residual": r.max_residual,
+        "packing_fraction": r.packing_fraction, "ke_over_mgd": r.ke_over_mgd,
+        "detect_s": r.timers.detect, "solve_s": r.timers.solve, "update_s": r.timers.update,
+    })
 }
