@@ -383,8 +383,8 @@ pub const RUNOUT_KIND: Kind = Kind {
     roles: crate::stages::kind::Roles::Fixed(&[("runs", crate::pipeline::context::Arity::Many)]),
     outputs: crate::stages::kind::Outputs {
         scalars: &[
-            "dem_dl_break_mgd", "dem_lf_low_se", "dem_tf_low_mean", "dem_tf_low_spread", "dem_vs_high_se",
-            "dem_vs_low_se", "mpm_dl_break_mgd", "split_mgd",
+            "cd_dl_break_mgd", "dem_dl_break_mgd", "dem_lf_low_se", "dem_tf_low_mean", "dem_tf_low_spread",
+            "dem_vs_high_se", "dem_vs_low_se", "mpm_dl_break_mgd", "split_mgd",
         ],
         tables: &[crate::stages::kind::TableDecl {
             name: "table",
@@ -399,3 +399,19 @@ pub const RUNOUT_KIND: Kind = Kind {
     cost: None,
     atlas: None,
 };
+
+#[cfg(test)]
+mod tests {
+    use crate::engines::method::Method;
+
+    /// The fitted break is published per method as `{method}_dl_break_mgd`: each must be
+    /// declared, or the runner refuses the run. The CD one was missing, and `pile-fits-cd`
+    /// failed at paper size, the first time the CD sweep had enough energies to fit a break.
+    #[test]
+    fn every_method_s_fitted_break_is_declared() {
+        for m in [Method::Dem, Method::Cd, Method::Mpm] {
+            let name = format!("{}_dl_break_mgd", m.label().to_lowercase());
+            assert!(super::RUNOUT_KIND.outputs.scalars.contains(&name.as_str()), "{name} not declared");
+        }
+    }
+}
