@@ -74,7 +74,9 @@ mod tests {
         let ok = Command::new("git")
             .arg("-C")
             .arg(dir)
-            .args(["-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false"])
+            .args([
+                "-c", "user.name=t", "-c", "user.email=t@example.org", "-c", "commit.gpgsign=false",
+            ])
             .args(args)
             .env("GIT_AUTHOR_DATE", &date)
             .env("GIT_COMMITTER_DATE", &date)
@@ -100,7 +102,11 @@ mod tests {
         let rec = m(&[("src/a.rs", "1")]);
         let now = m(&[("src/a.rs", "1"), ("src/c.rs", "3")]);
         let started = Some(1.5e9);
-        assert_eq!(widened(&dir, &rec, &now, started), Some(now.clone()), "untouched since the run");
+        assert_eq!(
+            widened(&dir, &rec, &now, started),
+            Some(now.clone()),
+            "untouched since the run"
+        );
         // no start time on record: no evidence
         assert_eq!(widened(&dir, &rec, &now, None), None);
         // the added file edited in the work tree
