@@ -21,14 +21,11 @@ contact*iterations/s and the steps that hit the sweep cap.
 import csv
 import os
 import sys
-import time
 
-import numpy as np
-import siconos.kernel as sk
-import siconos.numerics as sn
 from siconos.io.mechanics_run import MechanicsHdf5Runner
-from siconos.mechanics.collision.bullet import SiconosBulletOptions
 from siconos.mechanics.collision.tools import Contactor
+
+import nsgs_run
 
 args = sys.argv[1:]
 scene = args[0]
@@ -36,7 +33,7 @@ nsteps = int(args[1]) if len(args) > 1 else 100
 h = float(args[2]) if len(args) > 2 else 2e-3
 tol = float(args[3]) if len(args) > 3 else 1e-4
 
-MU, E_N, MAX_SWEEPS, WIDTH = 0.4, 0.0, 2000, 40 * 1.22
+MU, E_N, WIDTH = 0.4, 0.0, 40 * 1.22
 rows = list(csv.DictReader(open(scene)))
 radii = sorted({round(float(r["r"]), 9) for r in rows})
 out = os.path.splitext(os.path.basename(scene))[0] + ".hdf5"
@@ -59,33 +56,8 @@ with MechanicsHdf5Runner(io_filename=out) as io:
     io.add_object("left", [Contactor("side")], translation=[-0.5, height / 2])
     io.add_object("right", [Contactor("side")], translation=[WIDTH + 0.5, height / 2])
 
-bullet = SiconosBulletOptions()
-bullet.worldScale = 1.0
-bullet.contactBreakingThreshold = 0.02
-nsgs = sk.solver_options_create(sn.SICONOS_FRICTION_2D_NSGS)
-nsgs.iparam[sn.SICONOS_IPARAM_MAX_ITER] = MAX_SWEEPS
-nsgs.dparam[sn.SICONOS_DPARAM_TOL] = tol
-
-per_step = []  # (contacts, sweeps, residual) after every step
-
-
-def record(runner):
-    problem = runner._simulation.oneStepNSProblem(0)
-    opts = problem.numericsSolverOptions()
-    per_step.append((problem.getSizeOutput() // 2, opts.iparam[sn.SICONOS_IPARAM_ITER_DONE],
-                     opts.dparam[sn.SICONOS_DPARAM_RESIDU]))
-
-
-t0 = time.time()
-with MechanicsHdf5Runner(mode="r+", io_filename=out) as io:
-    io.run(with_timer=False, bullet_options=bullet, t0=0, T=nsteps * h, h=h, theta=0.50001,
-           Newton_max_iter=1, solver_options=nsgs, numerics_verbose=False, verbose=False,
-           verbose_progress=False, output_frequency=nsteps + 1, end_run_iteration_hook=record)
-wall = time.time() - t0
-
-s = np.array(per_step, dtype=float)
-contact_iterations = float((s[:, 0] * s[:, 1]).sum())
+wall, s = nsgs_run.run(out, nsteps, h, tol)
 print(f"scene={os.path.basename(scene)} disks={len(rows)} steps={len(s)} h={h} tol={tol} wall_s={wall:.2f} "
       f"mean_contacts={s[:, 0].mean():.0f} last_contacts={s[-1, 0]:.0f} sweeps_per_step={s[:, 1].mean():.1f} "
       f"max_sweeps={s[:, 1].max():.0f} last_residual={s[-1, 2]:.2e} "
-      f"contact_iterations_per_s={contact_iterations / wall:.3g} capped_steps={int((s[:, 1] >= MAX_SWEEPS).sum())}")
+      f"contact_iterations_per_s={nsgs_run.contact_iterations_per_s(s, wall):.3g} capped_steps={int((s[:, 1] >= nsgs_run.MAX_SWEEPS).sum())}")

@@ -21,14 +21,12 @@ HDF5 file deposit_NCOLxNROW.hdf5 in the working directory.
 """
 import os
 import sys
-import time
 
 import numpy as np
-import siconos.kernel as sk
-import siconos.numerics as sn
 from siconos.io.mechanics_run import MechanicsHdf5Runner
-from siconos.mechanics.collision.bullet import SiconosBulletOptions
 from siconos.mechanics.collision.tools import Contactor
+
+import nsgs_run
 
 args = sys.argv[1:]
 ncol = int(args[0]) if len(args) > 0 else 25
@@ -38,7 +36,7 @@ h = float(args[3]) if len(args) > 3 else 2e-3
 tol = float(args[4]) if len(args) > 4 else 1e-4
 
 RHO, MU, E_N = 2600.0, 0.4, 0.0
-PITCH, MAX_SWEEPS = 1.22, 2000
+PITCH = 1.22
 classes = np.linspace(0.4, 0.6, 8)
 width = ncol * PITCH
 out = f"deposit_{ncol}x{nrow}.hdf5"
@@ -69,33 +67,8 @@ with MechanicsHdf5Runner(io_filename=out) as io:
     io.add_object("right", [Contactor("side")], translation=[width + 0.5, nrow * PITCH])
 
 # ---- solver -----------------------------------------------------------------------------
-bullet = SiconosBulletOptions()
-bullet.worldScale = 1.0
-bullet.contactBreakingThreshold = 0.02
-nsgs = sk.solver_options_create(sn.SICONOS_FRICTION_2D_NSGS)
-nsgs.iparam[sn.SICONOS_IPARAM_MAX_ITER] = MAX_SWEEPS
-nsgs.dparam[sn.SICONOS_DPARAM_TOL] = tol
-
-per_step = []  # (contacts, sweeps, residual) after every step
-
-
-def record(runner):
-    problem = runner._simulation.oneStepNSProblem(0)
-    opts = problem.numericsSolverOptions()
-    per_step.append((problem.getSizeOutput() // 2, opts.iparam[sn.SICONOS_IPARAM_ITER_DONE],
-                     opts.dparam[sn.SICONOS_DPARAM_RESIDU]))
-
-
-t0 = time.time()
-with MechanicsHdf5Runner(mode="r+", io_filename=out) as io:
-    io.run(with_timer=False, bullet_options=bullet, t0=0, T=nsteps * h, h=h, theta=0.50001,
-           Newton_max_iter=1, solver_options=nsgs, numerics_verbose=False, verbose=False,
-           verbose_progress=False, output_frequency=nsteps + 1, end_run_iteration_hook=record)
-wall = time.time() - t0
-
-s = np.array(per_step, dtype=float)
-contact_iterations = float((s[:, 0] * s[:, 1]).sum())
+wall, s = nsgs_run.run(out, nsteps, h, tol)
 print(f"disks={ncol * nrow} steps={len(s)} h={h} tol={tol} wall_s={wall:.2f} steps_per_s={len(s) / wall:.1f} "
       f"mean_contacts={s[:, 0].mean():.0f} last_contacts={s[-1, 0]:.0f} mean_sweeps={s[:, 1].mean():.1f} "
       f"max_sweeps={s[:, 1].max():.0f} last_residual={s[-1, 2]:.2e} "
-      f"contact_iterations_per_s={contact_iterations / wall:.3g} capped_steps={int((s[:, 1] >= MAX_SWEEPS).sum())}")
+      f"contact_iterations_per_s={nsgs_run.contact_iterations_per_s(s, wall):.3g} capped_steps={int((s[:, 1] >= nsgs_run.MAX_SWEEPS).sum())}")
