@@ -262,6 +262,18 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     l.left_out.insert(n, h);
                     continue;
                 }
+                // a compact form in an earlier layout: compacted again from itself (the
+                // same markers; `crate::report::compact`)
+                if n.ends_with(".compact.svg") {
+                    let bytes = fsio::read(&dir.join(&n))?;
+                    let (again, merged) = crate::report::compact::compact_svg(&String::from_utf8_lossy(&bytes));
+                    if merged > 0 {
+                        fsio::write_new(&st.join(&n), again.as_bytes())?;
+                        out.bytes += again.len() as u64;
+                        l.published.insert(n, hash_bytes(again.as_bytes()));
+                        continue;
+                    }
+                }
                 copy(&dir.join(&n), &st.join(&n), &mut out.bytes)?;
                 l.published.insert(n, h);
             }
