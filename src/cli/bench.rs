@@ -45,8 +45,45 @@ fn print_phase_table(title: &str, rows: &[(&str, f64)], steps: u64) {
     );
 }
 
+/// The machine a sitting ran on, as one JSON line: the CPU as the kernel names it (vendor,
+/// family, model, clock), its cores, and the widest vector instructions it offers, which is
+/// the width the MPM stress block and the DEM pair filter dispatch to at run time
+/// (`mpm::stress_block`, `dem::passes`: AVX-512, else AVX2, else SSE2). Figures from two
+/// machines are only comparable with this line beside them (issue 27 item 4: the same code
+/// ran 17.0 M point-steps/s on one machine and 11.4 M on another).
+fn machine_line(cores: usize) -> serde_json::Value {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |k: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().is_some_and(|n| n.trim() == k))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().to_string())
+    };
+    #[cfg(target_arch = "x86_64")]
+    let simd = if std::arch::is_x86_feature_detected!("avx512f") {
+        "avx512"
+    } else if std::arch::is_x86_feature_detected!("avx2") {
+        "avx2"
+    } else {
+        "sse2"
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let simd = "scalar";
+    serde_json::json!({
+        "bench": "machine",
+        "cpu": field("model name"),
+        "vendor": field("vendor_id"),
+        "family": field("cpu family"),
+        "model": field("model"),
+        "mhz": field("cpu MHz").and_then(|v| v.parse::<f64>().ok()),
+        "cores": cores,
+        "simd": simd,
+    })
+}
+
 pub(super) fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
     let all = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    println!("{}", machine_line(all));
     let threads: Vec<usize> = if !o.threads.is_empty() {
         o.threads.iter().map(|&t| t.max(1)).collect()
     } else if all > 1 {

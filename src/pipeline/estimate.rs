@@ -1,7 +1,12 @@
-//! `granrepro plan --profile paper --estimate`: the CPU budget of a profile, estimated from
-//! measured quick-profile runs, not guessed.
+//! `granrepro plan --profile paper --estimate`: the CPU budget of a profile, measured where
+//! it has run and estimated from measured quick-profile runs where it has not, never guessed.
 //!
-//! **How**: for every stage, the quick run's record (the cache entry of its current quick
+//! **Measured first**: a stage whose current key has a run record at the profile itself —
+//! in the cache, or in the committed results (`results/<profile>/store/<key>/record.json`,
+//! which a fresh clone has) — counts with that record's wall × threads, and is done: it is
+//! not in what is still to run.
+//!
+//! **Else estimated**: for every other stage, the quick run's record (the cache entry of its current quick
 //! key, else `reports/quick/<id>.record.json`) gives wall time × threads. That is scaled
 //! by the ratio of the solver's work between the two profiles, computed from each
 //! profile's resolved parameters:
@@ -47,6 +52,12 @@ pub struct Row {
     pub kind: String,
     /// Quick run: wall [s] and threads, when measured.
     pub quick: Option<Measured>,
+    /// This profile's own run of the current key (cache or committed results): wall [s]
+    /// and threads. When present the stage is done and its cost is this, not an estimate.
+    pub own: Option<Measured>,
+    /// For a stage with neither record: the mean run of its family's members that ran at
+    /// this profile (an ensemble's or sweep's siblings), used as its estimate.
+    pub peers: Option<Measured>,
     /// Work ratio target / quick (1 for bookkeeping stages).
     pub scale: f64,
     /// What the ratio is made of.
@@ -54,14 +65,42 @@ pub struct Row {
 }
 
 impl Row {
-    /// Estimated wall [s] at the quick run's thread count.
+    /// Wall [s]: as run at this profile, else estimated at the quick run's thread count.
     pub fn wall_s(&self) -> Option<f64> {
-        self.quick.map(|m| m.wall_s * self.scale)
+        self.own
+            .map(|m| m.wall_s)
+            .or(self.quick.map(|m| m.wall_s * self.scale))
+            .or(self.peers.map(|m| m.wall_s))
     }
-    /// Estimated CPU-hours (wall × threads).
+    /// CPU-hours (wall × threads): as run at this profile, else estimated.
     pub fn cpu_h(&self) -> Option<f64> {
-        self.quick.map(|m| m.wall_s * self.scale * m.threads as f64 / 3600.0)
+        match (self.own, self.quick, self.peers) {
+            (Some(m), _, _) | (None, None, Some(m)) => Some(m.wall_s * m.threads as f64 / 3600.0),
+            (None, Some(m), _) => Some(m.wall_s * self.scale * m.threads as f64 / 3600.0),
+            (None, None, None) => None,
+        }
     }
+    /// Estimated CPU-hours of a stage not yet run at this profile (None when it has run, or
+    /// has no quick record either).
+    pub fn to_run_cpu_h(&self) -> Option<f64> {
+        if self.own.is_some() { None } else { self.cpu_h() }
+    }
+}
+
+/// One family's line of the table.
+#[derive(Debug, Clone, Default)]
+struct Family {
+    family: String,
+    kind: String,
+    basis: String,
+    stages: usize,
+    /// Stages that ran at this profile.
+    done: usize,
+    quick_cpu_h: f64,
+    done_cpu_h: f64,
+    to_run_cpu_h: f64,
+    /// A stage with no record at either profile.
+    unknown: bool,
 }
 
 /// The estimate of a profile.
@@ -76,15 +115,31 @@ pub struct Estimate {
 }
 
 impl Estimate {
-    /// Total estimated CPU-hours of the measured stages.
+    /// Total CPU-hours: as run where a stage has run at this profile, else estimated (stages
+    /// without any record add nothing). `0.0 +` keeps an empty sum from printing as "-0".
     pub fn total_cpu_h(&self) -> f64 {
-        self.rows.iter().filter_map(Row::cpu_h).sum()
+        0.0 + self.rows.iter().filter_map(Row::cpu_h).sum::<f64>()
+    }
+    /// CPU-hours already run at this profile, and over how many stages.
+    pub fn done_cpu_h(&self) -> (f64, usize) {
+        let done: Vec<f64> = self
+            .rows
+            .iter()
+            .filter(|r| r.own.is_some())
+            .filter_map(Row::cpu_h)
+            .collect();
+        (0.0 + done.iter().sum::<f64>(), done.len())
+    }
+    /// Estimated CPU-hours still to run, over how many stages (those with a quick record).
+    pub fn to_run_cpu_h(&self) -> (f64, usize) {
+        let left: Vec<f64> = self.rows.iter().filter_map(Row::to_run_cpu_h).collect();
+        (0.0 + left.iter().sum::<f64>(), left.len())
     }
     /// Threads of a worker (the quick runs' thread count).
     pub fn threads(&self) -> usize {
         self.rows
             .iter()
-            .filter_map(|r| r.quick.map(|m| m.threads))
+            .filter_map(|r| r.own.or(r.quick).map(|m| m.threads))
             .max()
             .unwrap_or(1)
     }
@@ -93,11 +148,11 @@ impl Estimate {
         let wall: f64 = self.rows.iter().filter_map(Row::wall_s).sum();
         (wall / 3600.0 / NIGHT_H).ceil().max(1.0) as usize
     }
-    /// Stages without a quick run record.
+    /// Stages with no run record at this profile and none at the quick one.
     pub fn unmeasured(&self) -> Vec<&str> {
         self.rows
             .iter()
-            .filter(|r| r.quick.is_none())
+            .filter(|r| r.own.is_none() && r.quick.is_none() && r.peers.is_none())
             .map(|r| r.id.as_str())
             .collect()
     }
@@ -106,31 +161,34 @@ impl Estimate {
         let r = self.rows.iter().find(|r| r.id == id)?;
         Some(Measured {
             wall_s: r.wall_s()?,
-            threads: r.quick?.threads,
+            threads: r.own.or(r.quick).or(r.peers)?.threads,
         })
     }
-    /// Families: (family, kind, stages, quick CPU-h, estimated CPU-h, bases).
-    fn families(&self) -> Vec<(String, String, usize, f64, f64, String, bool)> {
-        let mut out: Vec<(String, String, usize, f64, f64, String, bool)> = Vec::new();
+    /// Families, in plan order.
+    fn families(&self) -> Vec<Family> {
+        let mut out: Vec<Family> = Vec::new();
         for r in &self.rows {
             let q = r.quick.map(|m| m.wall_s * m.threads as f64 / 3600.0).unwrap_or(0.0);
-            match out.iter_mut().find(|f| f.0 == r.family) {
-                Some(f) => {
-                    f.2 += 1;
-                    f.3 += q;
-                    f.4 += r.cpu_h().unwrap_or(0.0);
-                    f.6 |= r.quick.is_none();
+            let done = if r.own.is_some() { r.cpu_h().unwrap_or(0.0) } else { 0.0 };
+            let at = match out.iter().position(|f| f.family == r.family) {
+                Some(i) => i,
+                None => {
+                    out.push(Family {
+                        family: r.family.clone(),
+                        kind: r.kind.clone(),
+                        basis: r.basis.clone(),
+                        ..Family::default()
+                    });
+                    out.len() - 1
                 }
-                None => out.push((
-                    r.family.clone(),
-                    r.kind.clone(),
-                    1,
-                    q,
-                    r.cpu_h().unwrap_or(0.0),
-                    r.basis.clone(),
-                    r.quick.is_none(),
-                )),
-            }
+            };
+            let f = &mut out[at];
+            f.stages += 1;
+            f.quick_cpu_h += q;
+            f.done += usize::from(r.own.is_some());
+            f.done_cpu_h += done;
+            f.to_run_cpu_h += r.to_run_cpu_h().unwrap_or(0.0);
+            f.unknown |= r.own.is_none() && r.quick.is_none() && r.peers.is_none();
         }
         out
     }
@@ -141,10 +199,13 @@ impl Estimate {
             "method": "quick-profile run records (wall × threads) × the ratio of solver work (DEM/CD grains × steps, MPM points × steps) from each profile's resolved parameters; see src/pipeline/estimate.rs",
             "stages": self.rows.iter().map(|r| json!({
                 "id": r.id, "family": r.family, "kind": r.kind,
-                "quick_wall_s": r.quick.map(|m| m.wall_s), "threads": r.quick.map(|m| m.threads),
+                "quick_wall_s": r.quick.map(|m| m.wall_s), "threads": r.own.or(r.quick).map(|m| m.threads),
                 "scale": r.scale, "basis": r.basis, "wall_s": r.wall_s(), "cpu_h": r.cpu_h(),
+                "ran_at_profile": r.own.is_some(),
             })).collect::<Vec<_>>(),
             "total_cpu_h": self.total_cpu_h(),
+            "done_cpu_h": self.done_cpu_h().0, "done_stages": self.done_cpu_h().1,
+            "to_run_cpu_h": self.to_run_cpu_h().0, "to_run_stages": self.to_run_cpu_h().1,
             "critical_path_h": self.critical.0 / 3600.0, "critical_path_ends_at": self.critical.1,
             "worker_threads": self.threads(), "workers_for_12h": self.workers_for_night(),
             "unmeasured": self.unmeasured(),
@@ -153,31 +214,42 @@ impl Estimate {
     /// Text table.
     pub fn to_text(&self) -> String {
         let mut s = format!(
-            "Estimated CPU-hours of the {} profile: the quick profile's measured runs (wall × threads)\n\
-             scaled by each solver's work — DEM/CD grains × steps, MPM points × steps — computed from\n\
-             both profiles' resolved parameters (method: src/pipeline/estimate.rs). Not modelled:\n\
-             contacts per grain, solver iterations, longer settling, parallel efficiency: good to a\n\
-             factor of 2–3.\n\n",
+            "CPU-hours of the {} profile. \"ran\": stages whose current key has run at this profile\n\
+             (cache or committed results), counted as run (wall × threads). \"to run\": the others,\n\
+             estimated from the quick profile's measured runs scaled by each solver's work — DEM/CD\n\
+             grains × steps, MPM points × steps — from both profiles' resolved parameters (method:\n\
+             src/pipeline/estimate.rs). Not modelled: contacts per grain, solver iterations, longer\n\
+             settling, parallel efficiency: an estimate is good to a factor of 2–3.\n\n",
             self.profile
         );
         s.push_str(&format!(
-            "{:<26} {:<22} {:>6} {:>11} {:>12}  {}\n",
-            "family", "kind", "stages", "quick CPU-h", "est. CPU-h", "work ratio (per stage)"
+            "{:<26} {:<22} {:>6} {:>5} {:>10} {:>11} {:>12}  {}\n",
+            "family", "kind", "stages", "ran", "ran CPU-h", "quick CPU-h", "to run CPU-h", "work ratio (per stage)"
         ));
-        for (fam, kind, n, q, e, basis, missing) in self.families() {
-            let est = if missing {
-                format!("{e:.2}+?")
+        for f in self.families() {
+            let left = if f.unknown {
+                format!("{:.2}+?", f.to_run_cpu_h)
             } else {
-                format!("{e:.2}")
+                format!("{:.2}", f.to_run_cpu_h)
             };
-            s.push_str(&format!("{fam:<26} {kind:<22} {n:>6} {q:>11.3} {est:>12}  {basis}\n"));
+            s.push_str(&format!(
+                "{:<26} {:<22} {:>6} {:>5} {:>10.2} {:>11.3} {:>12}  {}\n",
+                f.family, f.kind, f.stages, f.done, f.done_cpu_h, f.quick_cpu_h, left, f.basis
+            ));
         }
+        let ((done_h, done_n), (left_h, left_n)) = (self.done_cpu_h(), self.to_run_cpu_h());
+        let unknown = self.unmeasured().len();
         s.push_str(&format!(
-            "\ntotal: {:.0} CPU-hours ({} cores per worker, as measured); longest dependency chain {:.1} h (ending at {}).\n",
+            "\nran at this profile: {done_n} of {} stages, {done_h:.1} CPU-hours. To run: {left_n} stages, about {left_h:.1} CPU-hours{}.\n",
+            self.rows.len(),
+            if unknown > 0 { format!(", and {unknown} with no record at either profile (below)") } else { String::new() },
+        ));
+        s.push_str(&format!(
+            "total: {:.1} CPU-hours ({} cores per worker, as measured); longest dependency chain {:.1} h (ending at {}).\n",
             self.total_cpu_h(),
             self.threads(),
             self.critical.0 / 3600.0,
-            self.critical.1
+            if self.critical.1.is_empty() { "—" } else { self.critical.1.as_str() }
         ));
         let wall_h: f64 = self.rows.iter().filter_map(Row::wall_s).sum::<f64>() / 3600.0;
         let chain_h = self.critical.0 / 3600.0;
@@ -200,7 +272,7 @@ impl Estimate {
         let um = self.unmeasured();
         if !um.is_empty() {
             s.push_str(&format!(
-                "not measured (no quick run record; `granrepro run --stage ID` first, then re-estimate): {}\n",
+                "not measured (no run record at this profile or the quick one; `granrepro run --stage ID` first, then re-estimate): {}\n",
                 um.join(", ")
             ));
         }
@@ -214,6 +286,8 @@ pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Esti
         .map_err(|u| format!("unknown stage(s): {} (see `granrepro list`)", u.join(", ")))?;
     let q = load(&p.path, "quick", &[]).map_err(|d| d.to_string())?;
     let qkeys = key_records(&q);
+    let keys = key_records(p);
+    let committed = super::store::dir_of(&p.root, &p.profile).join(super::store::STORE);
     let mut rows = Vec::new();
     for id in &ids {
         let st = p.get(id).expect("closure id");
@@ -241,14 +315,36 @@ pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Esti
             }
             _ => (1.0, "bookkeeping: as measured".to_string()),
         };
+        let key = &keys[id.as_str()].1;
+        let own = entry_record(proj, key)
+            .or_else(|| super::export::measured_from_record_file(&committed.join(key).join("record.json")));
         rows.push(Row {
             id: id.clone(),
             family: st.base_id.clone(),
             kind: st.kind.clone(),
             quick,
+            own,
+            peers: None,
             scale,
             basis,
         });
+    }
+    // A stage with no record at either profile: its family's runs at this profile, if any.
+    let mut ran: HashMap<String, (f64, usize, usize)> = HashMap::new();
+    for r in rows.iter() {
+        if let Some(m) = r.own {
+            let e = ran.entry(r.family.clone()).or_default();
+            *e = (e.0 + m.wall_s, e.1.max(m.threads), e.2 + 1);
+        }
+    }
+    for r in rows.iter_mut().filter(|r| r.own.is_none() && r.quick.is_none()) {
+        if let Some(&(wall, threads, n)) = ran.get(&r.family) {
+            r.peers = Some(Measured {
+                wall_s: wall / n as f64,
+                threads,
+            });
+            r.basis = format!("mean of the family's {n} run(s) at this profile");
+        }
     }
     // Longest chain of estimated walls (plan order is topological).
     let wall: HashMap<&str, f64> = rows
@@ -330,6 +426,67 @@ mod tests {
             .unwrap_or_default()
     }
 
+    fn row(id: &str, family: &str, quick: Option<f64>, own: Option<f64>, scale: f64) -> Row {
+        let m = |w: f64| Measured { wall_s: w, threads: 1 };
+        Row {
+            id: id.into(),
+            family: family.into(),
+            kind: "k".into(),
+            quick: quick.map(m),
+            own: own.map(m),
+            peers: None,
+            scale,
+            basis: String::new(),
+        }
+    }
+
+    /// A stage that ran at the profile counts as run, at its own wall (not the quick run
+    /// scaled), and is not in what is left; an estimate counts only where it has not run.
+    #[test]
+    fn a_stage_run_at_the_profile_counts_as_run_not_as_estimated() {
+        let e = Estimate {
+            profile: "paper".into(),
+            rows: vec![
+                row("a", "f", Some(3600.0), Some(7200.0), 10.0), // ran: 2 h, not 10 h
+                row("b", "f", Some(3600.0), None, 3.0),          // to run: 3 h
+                row("c", "g", None, None, 1.0),                  // no record
+            ],
+            critical: (0.0, String::new()),
+        };
+        assert_eq!(e.done_cpu_h(), (2.0, 1));
+        assert_eq!(e.to_run_cpu_h(), (3.0, 1));
+        assert_eq!(e.total_cpu_h(), 5.0);
+        assert_eq!(e.unmeasured(), ["c"]);
+        let t = e.to_text();
+        assert!(t.contains("ran at this profile: 1 of 3 stages, 2.0 CPU-hours. To run: 1 stages, about 3.0 CPU-hours, and 1 with no record"), "{t}");
+    }
+
+    /// Nothing measured: the totals read 0, not "-0" (an empty f64 sum is −0.0).
+    #[test]
+    fn an_empty_estimate_prints_zero_not_minus_zero() {
+        let e = Estimate {
+            profile: "paper".into(),
+            rows: vec![row("c", "g", None, None, 1.0)],
+            critical: (0.0, String::new()),
+        };
+        let t = e.to_text();
+        assert!(!t.contains("-0"), "{t}");
+        assert!(t.contains("total: 0.0 CPU-hours"), "{t}");
+        assert!(t.contains("(ending at —)"), "{t}");
+    }
+
+    fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for e in std::fs::read_dir(from).unwrap() {
+            let e = e.unwrap();
+            if e.file_type().unwrap().is_dir() {
+                copy_tree(&e.path(), &to.join(e.file_name()));
+            } else {
+                std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+            }
+        }
+    }
+
     /// The shipped pipeline.yaml at `profile`.
     fn shipped(profile: &str) -> Pipeline {
         load(
@@ -347,7 +504,13 @@ mod tests {
     /// quick: 2 dense runs at κ = 1600, γ = 2. Grains 1078/400.
     #[test]
     fn paper_shear_test_scales_by_grains_times_steps() {
-        let (p, q, dir) = (shipped("paper"), shipped("quick"), tempfile::tempdir().unwrap());
+        // the shipped pipeline and stages, copied where no committed paper results are
+        let dir = tempfile::tempdir().unwrap();
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        std::fs::copy(root.join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
+        copy_tree(&root.join("stages"), &dir.path().join("stages"));
+        let at = |profile: &str| load(&dir.path().join("pipeline.yaml"), profile, &[]).unwrap();
+        let (p, q) = (at("paper"), at("quick"));
         let proj = Project::new(dir.path());
         std::fs::create_dir_all(proj.report_dir("quick")).unwrap();
         std::fs::write(
@@ -367,7 +530,13 @@ mod tests {
             "the paper shear test is much bigger than the quick one: {want}"
         );
         assert!((row.scale - want).abs() < 1e-9 * want, "{} vs {want}", row.scale);
-        assert!((row.cpu_h().unwrap() - 100.0 * want * 2.0 / 3600.0).abs() < 1e-9 * want);
+        // the estimate from the quick record
+        let q = row.quick.unwrap();
+        assert_eq!((q.wall_s, q.threads), (100.0, 2));
+        let est = q.wall_s * row.scale * q.threads as f64 / 3600.0;
+        assert!((est - 100.0 * want * 2.0 / 3600.0).abs() < 1e-9 * want);
+        assert!(row.own.is_none(), "nothing ran at paper size here");
+        assert!((row.cpu_h().unwrap() - est).abs() < 1e-9 * want);
         // Stages it needs without a record are listed, not guessed.
         assert!(e.unmeasured().contains(&"calib-dem"));
         // A bookkeeping stage keeps its measured time.
