@@ -351,7 +351,7 @@ pub(super) fn keep(p: &crate::pipeline::Pipeline, proj: &Project, max_file_mb: f
             }
             for (id, f, n, c) in &k.compacted {
                 println!(
-                    "  compact {id}: {f} ({:.1} MB) published as its compact form ({:.1} MB: one path per marker colour); `granrepro run --profile {} --stage {id}` regenerates the original",
+                    "  compact {id}: {f} ({:.1} MB) published as its compact form ({:.1} MB: one path per marker size and colour); `granrepro run --profile {} --stage {id}` regenerates the original",
                     *n as f64 / 1048576.0,
                     *c as f64 / 1048576.0,
                     p.profile

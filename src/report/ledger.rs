@@ -23,13 +23,38 @@ pub fn n4(x: f64) -> String {
     } else if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e5) {
         format!("{x:.3e}")
     } else {
-        let s = format!("{x:.4}");
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        // four significant digits, trailing zeros dropped
+        let decimals = if x == 0.0 {
+            0
         } else {
-            s
-        }
+            (3 - x.abs().log10().floor() as i32).clamp(0, 6) as usize
+        };
+        trim(format!("{x:.decimals$}"))
     }
+}
+
+fn trim(s: String) -> String {
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// A value and its spread (sd or s.e.), the spread to two significant digits and the value
+/// to the same decimal place: `36.51 ± 0.64`, `1.356 ± 0.062`. Very large or small values,
+/// and a zero or non-finite spread, fall back to [`n4`] for each.
+pub fn with_spread(x: f64, spread: f64) -> String {
+    let plain = || format!("{} ± {}", n4(x), n4(spread));
+    if !(x.is_finite() && spread.is_finite() && spread > 0.0) || (x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e5)) {
+        return plain();
+    }
+    let decimals = 1 - spread.log10().floor() as i32;
+    if !(0..=6).contains(&decimals) {
+        return plain();
+    }
+    let d = decimals as usize;
+    format!("{x:.d$} ± {spread:.d$}")
 }
 
 fn class(v: Verdict) -> &'static str {
@@ -71,8 +96,8 @@ pub fn ours_text(j: &Judged) -> String {
         return "—".into();
     }
     match (j.sd, j.se) {
-        (Some(sd), _) => format!("{} ± {} (sd, n = {})", n4(j.mean), n4(sd), j.values.len()),
-        (None, Some(se)) if se > 0.0 => format!("{} ± {} (s.e.)", n4(j.mean), n4(se)),
+        (Some(sd), _) => format!("{} (sd, n = {})", with_spread(j.mean, sd), j.values.len()),
+        (None, Some(se)) if se > 0.0 => format!("{} (s.e.)", with_spread(j.mean, se)),
         (None, None) => format!("{} (n = 1)", n4(j.mean)),
         _ => n4(j.mean),
     }
@@ -354,4 +379,32 @@ pub fn write_files(dir: &Path, j: &[Judged]) -> std::io::Result<()> {
         );
     }
     crate::pipeline::cache::write_atomic(&dir.join("claims.csv"), csv.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn single_values_keep_four_significant_digits() {
+        assert_eq!(n4(19.5989), "19.6");
+        assert_eq!(n4(1.9059), "1.906");
+        assert_eq!(n4(-0.0373), "-0.0373");
+        assert_eq!(n4(0.12345), "0.1235");
+        assert_eq!(n4(22.2), "22.2");
+        assert_eq!(n4(3.0), "3");
+        assert_eq!(n4(0.0), "0");
+        assert_eq!(n4(1.98e6), "1.980e6");
+        assert_eq!(n4(f64::NAN), "—");
+    }
+
+    #[test]
+    fn a_spread_has_two_significant_digits_and_the_value_its_decimals() {
+        assert_eq!(with_spread(36.506, 0.6368), "36.51 ± 0.64");
+        assert_eq!(with_spread(1.356, 0.0621), "1.356 ± 0.062");
+        assert_eq!(with_spread(52.8436, 1.1842), "52.8 ± 1.2");
+        assert_eq!(with_spread(1200.0, 35.0), "1200 ± 35");
+        assert_eq!(with_spread(0.0, 0.0), "0 ± 0");
+        assert_eq!(with_spread(2.158e5, 1e3), "2.158e5 ± 1000");
+    }
 }
