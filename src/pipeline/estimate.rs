@@ -196,7 +196,7 @@ impl Estimate {
     pub fn to_json(&self) -> Value {
         json!({
             "profile": self.profile,
-            "method": "quick-profile run records (wall × threads) × the ratio of solver work (DEM/CD grains × steps, MPM points × steps) from each profile's resolved parameters; see src/pipeline/estimate.rs",
+            "method": "a stage that ran at this profile (cache or committed results): its own record (wall × threads); else quick-profile run records (wall × threads) × the ratio of solver work (DEM/CD grains × steps, MPM points × steps) from each profile's resolved parameters; else its family's mean at this profile; see src/pipeline/estimate.rs",
             "stages": self.rows.iter().map(|r| json!({
                 "id": r.id, "family": r.family, "kind": r.kind,
                 "quick_wall_s": r.quick.map(|m| m.wall_s), "threads": r.own.or(r.quick).map(|m| m.threads),
