@@ -153,6 +153,11 @@ pub enum Cmd {
         /// Override a parameter: STAGE.KEY=VALUE.
         #[arg(long = "set")]
         sets: Vec<String>,
+        /// Instead: which committed results a change to this file or directory would mark
+        /// "built from changed code", which stages downstream read them, and what their runs
+        /// cost as measured (repeatable; e.g. `--if-changed src/mpm`).
+        #[arg(long = "if-changed", value_name = "PATH")]
+        if_changed: Vec<String>,
     },
     /// Keep the profile's results in `results/<profile>/` (for the paper profile, committed
     /// to the repository): each stage with a complete cache entry, its published tables,
@@ -550,12 +555,17 @@ pub fn run_cli(cli: Cli) -> i32 {
                 2
             }
         },
-        Cmd::Status { profile, sets } => {
+        Cmd::Status {
+            profile,
+            sets,
+            if_changed,
+        } => {
             let sets = match parse_sets(&sets) {
                 Ok(s) => s,
                 Err(c) => return c,
             };
             match load(&cli.pipeline, profile.name(), &sets) {
+                Ok(p) if !if_changed.is_empty() => crate::cli::commands::print_impact(&p, &if_changed),
                 Ok(p) => {
                     for (id, f) in status(&p, &proj) {
                         let on_demand = p.get(&id).is_some_and(|s| s.on_demand);

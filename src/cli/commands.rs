@@ -270,6 +270,36 @@ pub(crate) fn print_claims(p: &crate::pipeline::Pipeline, dir: &std::path::Path)
 /// `status`, second part: the committed results of the profile (`results/<profile>/` and
 /// the studies kept for it), when there are any. Exit 1 when a committed file does not
 /// match its lock.
+/// `status --if-changed PATH…`: what a change under the paths would cost each committed
+/// results directory (`crate::pipeline::store::impact`).
+pub(crate) fn print_impact(p: &crate::pipeline::Pipeline, paths: &[String]) -> i32 {
+    use crate::pipeline::store::{self, impact};
+    let dirs = match store::committed_dirs(p) {
+        Ok(d) => d,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return 2;
+        }
+    };
+    let mut readers: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+    for s in &p.stages {
+        for (_, ids) in &s.inputs {
+            for id in ids {
+                readers.entry(id.clone()).or_default().push(s.id.clone());
+            }
+        }
+    }
+    if dirs.is_empty() {
+        println!("no committed results for profile {}", p.profile);
+    }
+    for (dir, lock) in &dirs {
+        println!("committed results ({}):", dir.display());
+        let i = impact::impact(&impact::committed(lock), &readers, paths);
+        print!("{}", i.to_text(&p.profile, paths));
+    }
+    0
+}
+
 pub(crate) fn print_committed(p: &crate::pipeline::Pipeline) -> i32 {
     use crate::pipeline::store::{self, Committed};
     let dirs = match store::committed_dirs(p) {

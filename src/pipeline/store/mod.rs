@@ -22,7 +22,7 @@
 //! committed once: the store's copy, which the index shows, and not its published twin
 //! (which differs only by its footer stamp); a figure over the figure cap is left out of the
 //! store and published as its compact form `X.compact.svg` when it is a particle snapshot
-//! (`crate::report::compact`: the same markers, one path per colour). An entry
+//! (`crate::report::compact`: the same markers, one path per marker size and colour). An entry
 //! that kept every JSON and Parquet file is *complete*: a stage that must run can read it.
 //!
 //! **As a second cache** ([`prepare`]): before a run of profile `P`, each planned stage whose
@@ -574,6 +574,7 @@ pub fn committed_dirs(p: &Pipeline) -> anyhow::Result<Vec<(PathBuf, Lock)>> {
     Ok(out)
 }
 
+pub mod impact;
 mod keep;
 mod widen;
 pub use keep::{Kept, keep, keep_dir};
