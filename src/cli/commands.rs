@@ -281,14 +281,7 @@ pub(crate) fn print_impact(p: &crate::pipeline::Pipeline, paths: &[String]) -> i
             return 2;
         }
     };
-    let mut readers: std::collections::BTreeMap<String, Vec<String>> = Default::default();
-    for s in &p.stages {
-        for (_, ids) in &s.inputs {
-            for id in ids {
-                readers.entry(id.clone()).or_default().push(s.id.clone());
-            }
-        }
-    }
+    let readers = crate::pipeline::dag::readers(p);
     if dirs.is_empty() {
         println!("no committed results for profile {}", p.profile);
     }

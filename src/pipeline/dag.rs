@@ -68,6 +68,20 @@ pub fn closure(p: &Pipeline, targets: &[String]) -> Result<Vec<String>, Vec<Stri
         .collect())
 }
 
+/// The reverse edges: each stage id to the ids of the stages that read it, in pipeline
+/// order.
+pub fn readers(p: &Pipeline) -> std::collections::BTreeMap<String, Vec<String>> {
+    let mut out: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+    for s in &p.stages {
+        for (_, ids) in &s.inputs {
+            for id in ids {
+                out.entry(id.clone()).or_default().push(s.id.clone());
+            }
+        }
+    }
+    out
+}
+
 fn quote(s: &str) -> String {
     s.replace('"', "\\\"")
 }
