@@ -2,6 +2,7 @@
 pub mod cloud;
 pub mod failure;
 pub mod front;
+pub mod gathered_front;
 pub mod inertial;
 pub mod pile;
 pub mod runout;
