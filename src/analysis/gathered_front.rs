@@ -132,8 +132,9 @@ pub fn gathered_front(body: &Body, bin: f64, layer: f64) -> f64 {
     gathered(body, bin, layer, true)
 }
 
-/// The gathered length of every bin from the first covered one, connected or not: for a
-/// body set already reduced to its main mass by a linking rule ([`super::front::main_mass`]).
+/// The gathered length of every bin from the first covered one, connected or not: every
+/// body counts by what it holds (the variant without jumps). To count a main mass only,
+/// pass the bodies [`super::front::main_mass`] selects.
 pub fn gathered_length(body: &Body, bin: f64, layer: f64) -> f64 {
     gathered(body, bin, layer, false)
 }
