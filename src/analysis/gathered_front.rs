@@ -188,9 +188,10 @@ mod tests {
         )
     }
 
-    fn gathered(v: &[(f64, f64, f64)], bin: f64, layer: f64) -> f64 {
+    /// `rule` applied to bodies given as (x, y, half) triples of unit mass.
+    fn measure(rule: fn(&Body, f64, f64) -> f64, v: &[(f64, f64, f64)], bin: f64, layer: f64) -> f64 {
         let (x, y, h, m) = bodies(v);
-        gathered_front(
+        rule(
             &Body {
                 x: &x,
                 y: &y,
@@ -200,6 +201,14 @@ mod tests {
             bin,
             layer,
         )
+    }
+
+    fn gathered(v: &[(f64, f64, f64)], bin: f64, layer: f64) -> f64 {
+        measure(gathered_front, v, bin, layer)
+    }
+
+    fn length(v: &[(f64, f64, f64)], bin: f64, layer: f64) -> f64 {
+        measure(gathered_length, v, bin, layer)
     }
 
     /// A block of squares of side 2·half tiling [0, w] × [0, t].
@@ -255,20 +264,6 @@ mod tests {
         let mut thick = block(0.0, 1.0, 0.4, 0.005);
         thick.extend(block(1.0, 1.0, 0.11, 0.005));
         assert!((gathered(&thick, 0.1, 0.1) - 2.0).abs() < 1e-6);
-    }
-
-    fn length(v: &[(f64, f64, f64)], bin: f64, layer: f64) -> f64 {
-        let (x, y, h, m) = bodies(v);
-        gathered_length(
-            &Body {
-                x: &x,
-                y: &y,
-                half: &h,
-                mass: &m,
-            },
-            bin,
-            layer,
-        )
     }
 
     #[test]
