@@ -458,7 +458,7 @@ pub fn without_pub_use(code: &str) -> String {
 /// Where a type's methods live when they are not beside it: for each file `d` that defines
 /// a type (`struct`, `enum`, `union`, `type` at the start of a line), the other files that
 /// hold an `impl` block for that name (`impl N`, `impl T for N`, with any generics and path)
-/// and import `d` (an `impl` names its type, so its file imports the type's file; that
+/// and import `d` or declare it as a submodule (an `impl` names its type, so its file imports the type's file; that
 /// keeps two types of one name in different modules apart; a file's `impl N` of an `N` it
 /// defines itself is its own). The import graph follows
 /// names; a method call (`p.engine()`) names no file, so the results lock adds these edges
@@ -490,12 +490,24 @@ pub fn impl_edges(g: &Graph) -> BTreeMap<PathBuf, BTreeSet<PathBuf>> {
             continue; // `impl N` of the file's own N, which shadows any imported one
         }
         for d in defines.get(&name).into_iter().flatten() {
-            if *d != f && g.edges.get(&f).is_some_and(|e| e.contains_key(d)) {
+            if *d != f && (g.edges.get(&f).is_some_and(|e| e.contains_key(d)) || is_ancestor(g, &f, d)) {
                 edges.entry(d.clone()).or_default().insert(f.clone());
             }
         }
     }
     edges
+}
+
+/// Is `f` a module above `d` (`dem/world.rs` above `dem/world/data.rs`)? A parent names its
+/// child's type through its own `pub use data::World`, a re-export, which is structure and
+/// not an import, so `impl World` in `dem/world.rs` (the step, beside `mod data;`) left no
+/// edge: the DEM's step and force passes (`dem/world.rs`, `dem/passes.rs`) were in no
+/// kind's closure, and a change there left every committed DEM result "fresh".
+fn is_ancestor(g: &Graph, f: &Path, d: &Path) -> bool {
+    match (g.module_of.get(f), g.module_of.get(d)) {
+        (Some(mf), Some(md)) => md.len() > mf.len() && md.starts_with(mf),
+        _ => false,
+    }
 }
 
 /// A line without its leading visibility and `unsafe`/`default` qualifiers.
