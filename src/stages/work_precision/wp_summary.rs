@@ -514,8 +514,9 @@ pub const KIND: Kind = Kind {
     roles: crate::stages::kind::Roles::Fixed(&[("sources", crate::pipeline::context::Arity::Many)]),
     outputs: crate::stages::kind::Outputs {
         scalars: &[
-            "cd_profile_error", "cd_profile_error_se", "dem_profile_error", "dem_profile_error_se",
-            "mpm_profile_error", "mpm_profile_error_se", "orders_sound", "orders_tested",
+            "cd_order_*", "cd_profile_error", "cd_profile_error_se", "dem_order_*", "dem_profile_error",
+            "dem_profile_error_se", "mpm_order_*", "mpm_profile_error", "mpm_profile_error_se", "orders_sound",
+            "orders_tested",
         ],
         tables: &[
             crate::stages::kind::TableDecl {
@@ -582,5 +583,26 @@ mod ensemble_error_tests {
         assert_eq!(ensemble_error(&[1.0, 2.0], &[1.0, 2.0]).1, 0.0);
         // single runs have no standard error
         assert!(ensemble_error(&[1.0], &[2.0]).2.is_nan());
+    }
+}
+
+#[cfg(test)]
+mod declared_tests {
+    /// A sound observed order is published as `{method}_order_{knob}`; until 2026-12-07 the
+    /// declaration listed none, so the first sound order (the quick MPM's PPC order, once
+    /// its run-out was the gathered length) failed the stage at run time.
+    #[test]
+    fn every_order_scalar_the_stage_can_publish_is_declared() {
+        let knobs: [(&str, &[&str]); 3] = [
+            ("dem", &["stiffness_factor", "dt_fraction", "grains"]),
+            ("mpm", &["ppc", "cell_size_m", "courant", "shape_linear", "scheme_musl"]),
+            ("cd", &["dt_s", "tolerance", "max_iterations"]),
+        ];
+        for (method, ks) in knobs {
+            for k in ks {
+                let name = format!("{method}_order_{k}");
+                assert!(super::KIND.outputs.has_scalar(&name), "{name} is not declared");
+            }
+        }
     }
 }
