@@ -1,6 +1,8 @@
-//! A candidate front rule for grains and material points (issue 25, item 2): the
-//! **gathered front**. Not used by any stage yet: docs/definitions.md D01 says why, and what
-//! it measured.
+//! The front rule for grains and material points (issue 25, item 2): the **gathered
+//! length**. Every column records it at every sample; the MPM columns take it as their L(t),
+//! run-out and stop front (`run.front_rule: gathered`), and the DEM columns publish it
+//! beside the chapter's contact rule (`runout_gathered_norm`), so the two methods are
+//! compared on one rule (docs/definitions.md D01).
 //!
 //! **Meaning.** The run-out is the length the deposit connected to the main mass would
 //! cover if every part thinner than one layer (`layer`, one mean grain diameter d̄) were
@@ -47,13 +49,17 @@ pub struct Profile {
     pub covered: Vec<f64>,
     /// Left edge of the covered part of each bin [m] (+∞ where empty).
     pub left: Vec<f64>,
+    /// Highest top edge of the bodies overlapping each bin [m] (−∞ where empty).
+    pub top: Vec<f64>,
+    /// Farthest right edge of the bodies overlapping each bin [m] (−∞ where empty).
+    pub right: Vec<f64>,
 }
 
 /// Largest number of bins (a body flung far away cannot make the profile huge).
 const MAX_BINS: usize = 1 << 20;
 
 /// Union length of intervals sorted by their start.
-fn union_length(iv: &[(f64, f64)]) -> f64 {
+pub(crate) fn union_length(iv: &[(f64, f64)]) -> f64 {
     let Some(&(mut lo, mut hi)) = iv.first() else {
         return 0.0;
     };
@@ -83,8 +89,7 @@ pub fn profile(body: &Body, bin: f64) -> Profile {
     let mut rows: Vec<(usize, (f64, f64), (f64, f64))> = Vec::with_capacity(2 * n);
     for i in 0..n {
         let (xa, xb) = (body.x[i] - body.half[i], body.x[i] + body.half[i]);
-        let lo = (((xa - x0) / bin).floor().max(0.0) as usize).min(nb - 1);
-        let hi = (((xb - x0) / bin).ceil() as usize).saturating_sub(1).clamp(lo, nb - 1);
+        let (lo, hi) = bins_of(body, i, x0, bin, nb);
         for k in lo..=hi {
             let (ba, bb) = (x0 + k as f64 * bin, x0 + (k + 1) as f64 * bin);
             let (ca, cb) = (xa.max(ba), xb.min(bb));
@@ -97,6 +102,15 @@ pub fn profile(body: &Body, bin: f64) -> Profile {
     let mut thickness = vec![0.0; nb];
     let mut covered = vec![0.0; nb];
     let mut left = vec![f64::INFINITY; nb];
+    let mut top = vec![f64::NEG_INFINITY; nb];
+    let mut right = vec![f64::NEG_INFINITY; nb];
+    for i in 0..n {
+        let (lo, hi) = bins_of(body, i, x0, bin, nb);
+        for k in lo..=hi {
+            top[k] = top[k].max(body.y[i] + body.half[i]);
+            right[k] = right[k].max(body.x[i] + body.half[i]);
+        }
+    }
     rows.sort_by(|a, b| {
         a.0.cmp(&b.0)
             .then(a.1.0.total_cmp(&b.1.0))
@@ -123,7 +137,44 @@ pub fn profile(body: &Body, bin: f64) -> Profile {
         thickness,
         covered,
         left,
+        top,
+        right,
     }
+}
+
+/// The bins (first, last) body `i` overlaps, of `nb` bins of width `bin` from `x0`; a body
+/// that only touches a bin's edge does not overlap it.
+pub(crate) fn bins_of(body: &Body, i: usize, x0: f64, bin: f64, nb: usize) -> (usize, usize) {
+    let lo = ((body.x[i] - body.half[i] - x0) / bin).floor().max(0.0) as usize;
+    let hi = ((body.x[i] + body.half[i] - x0) / bin).ceil() as usize;
+    let lo = lo.min(nb - 1);
+    (lo, hi.saturating_sub(1).clamp(lo, nb - 1))
+}
+
+/// The rule that gives a column's L(t), its run-out and the front its stop rule watches
+/// (docs/definitions.md D01), for grains and material points alike.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrontRule {
+    /// The right edge of the main mass by the method's links (grains: the chapter's contact
+    /// rule; material points: shared grid nodes or an edge gap).
+    #[default]
+    Links,
+    /// The gathered length over every body ([`gathered_length`], bins and layer of one d̄).
+    Gathered,
+}
+
+impl FrontRule {
+    /// Whether this is the default (serde's `skip_serializing_if`, so that cache keys of
+    /// stages that do not set it are unchanged).
+    pub fn is_links(&self) -> bool {
+        matches!(self, FrontRule::Links)
+    }
+}
+
+/// The gathered length at the D01 scales: bins and layer of one mean grain diameter `d` [m].
+pub fn gathered_d(body: &Body, d: f64) -> f64 {
+    gathered_length(body, d, d)
 }
 
 /// The gathered front of `body` (see the module comment): bins of width `bin` [m], one layer

@@ -28,6 +28,7 @@
 //! total order, and the result does not depend on the input order.
 
 use super::front::{Body, Front};
+use super::gathered_front::{bins_of, profile};
 use serde::{Deserialize, Serialize};
 
 /// Stage setting `front` of the column runs.
@@ -61,20 +62,14 @@ impl ThickRule {
     }
 }
 
-/// Largest number of bins (a body flung far away cannot make the profile huge).
-const MAX_BINS: usize = 1 << 20;
-
 /// The deposit front of `body` (see the module comment): bins of width `bin` [m] (d̄),
 /// least thickness `threshold` [m]. `n_main` and `mass_fraction` count the bodies that
 /// overlap the bins from the first connected one to the front's. An empty body gives
-/// zeros; if no bin reaches the threshold, the front is in the thickest bin.
+/// zeros; if no bin reaches the threshold, the front is in the thickest bin. The per-bin
+/// thickness, top and right edge are [`super::gathered_front::profile`]'s.
 pub fn thick_front(body: &Body, bin: f64, threshold: f64) -> Front {
     assert!(bin > 0.0 && bin.is_finite(), "thick_front: bin must be positive");
     let n = body.x.len();
-    assert!(
-        body.y.len() == n && body.half.len() == n && body.mass.len() == n,
-        "Body slices differ in length"
-    );
     let zero = Front {
         length: 0.0,
         height: 0.0,
@@ -84,45 +79,9 @@ pub fn thick_front(body: &Body, bin: f64, threshold: f64) -> Front {
     if n == 0 {
         return zero;
     }
-    let x0 = (0..n).map(|i| body.x[i] - body.half[i]).fold(0.0, f64::min);
-    let x1 = (0..n).map(|i| body.x[i] + body.half[i]).fold(x0, f64::max);
-    let nb = (((x1 - x0) / bin).ceil() as usize).clamp(1, MAX_BINS);
-    // Bins overlapped by body i (strictly: touching a bin edge is not overlapping).
-    let range = |i: usize| -> (usize, usize) {
-        let lo = ((body.x[i] - body.half[i] - x0) / bin).floor().max(0.0) as usize;
-        let hi = ((body.x[i] + body.half[i] - x0) / bin).ceil() as usize;
-        let lo = lo.min(nb - 1);
-        (lo, hi.saturating_sub(1).clamp(lo, nb - 1))
-    };
-    let mut iv: Vec<(usize, f64, f64)> = Vec::with_capacity(2 * n);
-    let mut top = vec![f64::NEG_INFINITY; nb];
-    let mut right = vec![f64::NEG_INFINITY; nb];
-    for i in 0..n {
-        let (lo, hi) = range(i);
-        for k in lo..=hi {
-            iv.push((k, body.y[i] - body.half[i], body.y[i] + body.half[i]));
-            top[k] = top[k].max(body.y[i] + body.half[i]);
-            right[k] = right[k].max(body.x[i] + body.half[i]);
-        }
-    }
-    iv.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.total_cmp(&b.2)));
-    // Union length of the y-intervals of each bin.
-    let mut thick = vec![0.0f64; nb];
-    let mut k = 0usize;
-    while k < iv.len() {
-        let bin_k = iv[k].0;
-        let (mut lo, mut hi, mut sum) = (iv[k].1, iv[k].2, 0.0);
-        k += 1;
-        while k < iv.len() && iv[k].0 == bin_k {
-            if iv[k].1 > hi {
-                sum += hi - lo;
-                lo = iv[k].1;
-            }
-            hi = hi.max(iv[k].2);
-            k += 1;
-        }
-        thick[bin_k] = sum + (hi - lo);
-    }
+    let p = profile(body, bin);
+    let (x0, nb, thick, top, right) = (p.x0, p.thickness.len(), &p.thickness, &p.top, &p.right);
+    let x1 = right.iter().cloned().fold(x0, f64::max);
     // A layer of exactly the threshold passes despite rounding in the union.
     let passes = |t: f64| t >= threshold * (1.0 - 1e-9);
     let mut main = 0usize;
@@ -151,7 +110,7 @@ pub fn thick_front(body: &Body, bin: f64, threshold: f64) -> Front {
     let (mut m_main, mut m_all, mut n_main) = (0.0, 0.0, 0usize);
     for i in 0..n {
         m_all += body.mass[i];
-        let (lo, hi) = range(i);
+        let (lo, hi) = bins_of(body, i, x0, bin, nb);
         if lo <= last && hi >= first {
             m_main += body.mass[i];
             n_main += 1;

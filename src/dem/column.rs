@@ -5,6 +5,7 @@
 
 use crate::analysis::cloud::Cloud;
 use crate::analysis::front::{Body, Link, front, lengths_for_gaps};
+use crate::analysis::gathered_front::gathered_d;
 use crate::analysis::inertial::{Grain, coarse_grained};
 use crate::analysis::stop::{StopRule, Verdict};
 use crate::analysis::thick_front::ThickRule;
@@ -96,6 +97,10 @@ pub struct Sample {
     pub length: Real,
     /// Height H(t) of the main mass [m] (D03).
     pub height: Real,
+    /// The gathered length over every grain (D01, `analysis::gathered_front`, bins and
+    /// layer of one d̄): the rule the MPM columns use, so the two methods compare on one [m].
+    #[serde(default)]
+    pub length_gathered: Real,
     /// Grains in the main mass.
     pub n_main: usize,
     /// E_p [J/m].
@@ -211,15 +216,13 @@ pub fn cloud(s: &State, t: Real) -> Cloud {
 
 fn sample(w: &World, t0: Real, gap: Real, grain: Grain) -> Sample {
     let s = &w.state;
-    let f = front(
-        &Body {
-            x: &s.x,
-            y: &s.y,
-            half: &s.r,
-            mass: &s.m,
-        },
-        Link::Contact { gap },
-    );
+    let body = Body {
+        x: &s.x,
+        y: &s.y,
+        half: &s.r,
+        mass: &s.m,
+    };
+    let f = front(&body, Link::Contact { gap });
     let inertial = coarse_grained(&cloud(s, w.t - t0), grain);
     let b = w.balance();
     let e = b.energies;
@@ -227,6 +230,7 @@ fn sample(w: &World, t0: Real, gap: Real, grain: Grain) -> Sample {
         t: w.t - t0,
         length: f.length,
         height: f.height,
+        length_gathered: gathered_d(&body, grain.d),
         n_main: f.n_main,
         ep: e.ep,
         ekx: e.ekx,

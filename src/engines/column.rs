@@ -47,6 +47,8 @@ pub struct ColumnTrace {
     pub l: Vec<f64>,
     /// See `l`.
     pub h: Vec<f64>,
+    /// The gathered length over every body (D01, the rule both methods share) [m].
+    pub l_gathered: Vec<f64>,
     /// Translational kinetic energy (eq 4.11) [J/m].
     pub ek: Vec<f64>,
     /// E_p [J/m].

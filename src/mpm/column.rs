@@ -10,10 +10,11 @@
 //! 2.7a^{2/3} (eq 4.6), and from y = 0 to 1.25 H_0 + 4h, plus ghost cells ("the extent of the
 //! background mesh in MPM is much larger than the initial column").
 //!
-//! Front (D01): main mass = points linked within 1.5 × initial spacing, L = max(x + l_p),
-//! H = max(y + l_p).
+//! Front (D01): `run.front_rule` (the gathered length, or the right edge of the main mass
+//! by the links of [`super::column_front`]); H = max(y + l_p) of the main mass.
 
 use super::boundary;
+pub use super::column_front::{front_linked, front_of, front_of_dilated, lengths_linked, mass_quantile_x};
 use super::energy::{Energies, energies};
 use super::error::MpmError;
 use super::geostatic::{self, GeostaticReport};
@@ -24,7 +25,8 @@ use super::solver::{PhaseTimes, Solver};
 use super::state::State;
 use super::watchdog::EnergyWatch;
 use crate::analysis::cloud::Cloud;
-use crate::analysis::front::{Body, Front, Link, front, lengths_for_gaps, main_mass};
+use crate::analysis::front::{Front, Link};
+use crate::analysis::gathered_front::{FrontRule, gathered_d};
 use crate::analysis::inertial::{Grain, coarse_grained};
 use crate::analysis::stop::{StopRule, Verdict};
 use crate::analysis::thick_front::ThickRule;
@@ -193,6 +195,12 @@ pub struct CollapseOptions {
     /// `runout_by_threshold`; L(t), H(t), the run-out and the stop rule keep the links below.
     #[serde(skip_serializing_if = "ThickRule::is_default")]
     pub front: ThickRule,
+    /// D01 rule of L(t), the run-out and the stop front: `links` (the main mass by the links
+    /// below) or `gathered` (the gathered length over every point, bins and layer of one
+    /// d̄: `analysis::gathered_front`, issue 25). H(t) and the main-mass fraction keep the
+    /// links.
+    #[serde(default, skip_serializing_if = "FrontRule::is_links")]
+    pub front_rule: FrontRule,
     /// D01 linking gap [d̄ = material.grain_diameter]: points, as bodies of half-size l_p,
     /// are linked when their edges are within the gap (the DEM rule). None: the older
     /// 1.5 × initial spacing centre distance.
@@ -228,6 +236,7 @@ impl Default for CollapseOptions {
             gate_lift_speed: 0.0,
             stop: None,
             front: ThickRule::default(),
+            front_rule: FrontRule::Links,
             link_gap: None,
             link_grid: false,
             link_gap_sensitivity: Vec::new(),
@@ -241,8 +250,10 @@ impl Default for CollapseOptions {
 pub struct Sample {
     /// Time since release [s].
     pub t: Real,
-    /// Front L(t) [m].
+    /// Front L(t) [m] by `run.front_rule`.
     pub l: Real,
+    /// The gathered length over every point (D01, `analysis::gathered_front`) [m].
+    pub l_gathered: Real,
     /// Height H(t) [m].
     pub h: Real,
     /// Farthest right edge over all points, detached ones included [m] (diagnostic: the
@@ -437,9 +448,11 @@ pub struct CollapseResult {
     pub series: Vec<Sample>,
     /// Snapshots at the requested times.
     pub snapshots: Vec<Snapshot>,
-    /// Final front.
+    /// Final front by the links (its height is H_f).
     pub final_front: Front,
-    /// ΔL = (L_f − L_0)/L_0 [-] (D01 main mass, links 1.5 × initial spacing).
+    /// L_f [m] by `run.front_rule`.
+    pub final_length: Real,
+    /// ΔL = (L_f − L_0)/L_0 [-] by `run.front_rule`.
     pub runout: Real,
     /// ΔL of the main mass with dilation-following links ([`front_of_dilated`]) [-]: less
     /// sensitive to gaps opening in a thin deposit at coarse resolution.
@@ -460,126 +473,6 @@ pub struct CollapseResult {
     pub initial: Snapshot,
     /// See `initial`.
     pub final_state: Snapshot,
-}
-
-/// Front of a state (D01).
-pub fn front_of(state: &State, lp: Real, spacing: Real) -> Front {
-    let n = state.points.len();
-    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-    }
-    let half = vec![lp; n];
-    front(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
-        Link::Distance(1.5 * spacing),
-    )
-}
-
-/// Front of a state with an explicit linking rule, points as bodies of half-size `lp`.
-pub fn front_linked(state: &State, lp: Real, link: Link) -> Front {
-    let n = state.points.len();
-    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-    }
-    let half = vec![lp; n];
-    front(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
-        link,
-    )
-}
-
-/// L for each edge gap of `gaps` [m], points as bodies of half-size `lp`.
-pub fn lengths_linked(state: &State, lp: Real, gaps: &[Real]) -> Vec<Real> {
-    let n = state.points.len();
-    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-    }
-    let half = vec![lp; n];
-    lengths_for_gaps(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
-        gaps,
-    )
-}
-
-/// Front with links that follow the points' dilation: points i and j are linked when
-/// |x_i − x_j| ≤ 0.75 s (√J_i + √J_j) (= 1.5 s, the D01 rule, for undeformed points). A thin
-/// deposit whose points have spread apart (J ≫ 1 at the toe) stays one mass as long as the
-/// point volumes still tile it. L and H are still max(x + l_p), max(y + l_p).
-pub fn front_of_dilated(state: &State, lp: Real, spacing: Real) -> Front {
-    let n = state.points.len();
-    let (mut x, mut y, mut m, mut r) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-        r.push(0.75 * spacing * p.j.max(1.0).sqrt());
-    }
-    let idx = main_mass(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &r,
-            mass: &m,
-        },
-        Link::Contact { gap: 0.0 },
-    );
-    let total: Real = m.iter().sum();
-    let (mut length, mut height, mut mm) = (0.0 as Real, 0.0 as Real, 0.0);
-    for &i in &idx {
-        length = length.max(x[i] + lp);
-        height = height.max(y[i] + lp);
-        mm += m[i];
-    }
-    Front {
-        length,
-        height,
-        n_main: idx.len(),
-        mass_fraction: if total > 0.0 { mm / total } else { 0.0 },
-    }
-}
-
-/// x below which the fraction `q` of the points' mass lies [m].
-pub fn mass_quantile_x(state: &State, q: Real) -> Real {
-    let mut xm: Vec<(Real, Real)> = state.points.iter().map(|p| (p.x.x, p.mass)).collect();
-    xm.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let total: Real = xm.iter().map(|v| v.1).sum();
-    let mut acc = 0.0;
-    for (x, m) in &xm {
-        acc += m;
-        if acc >= q * total {
-            return *x;
-        }
-    }
-    xm.last().map(|v| v.0).unwrap_or(0.0)
 }
 
 /// Expected largest speed of a column collapse, √(2 g H_0) (docs/definitions.md c.3) [m/s].
@@ -672,11 +565,17 @@ pub fn run_collapse_with_progress(
         let e = energies(state, &el, g);
         let f = front_linked(state, lp, link);
         gap_lengths.push(lengths_linked(state, lp, &gaps));
-        let inertial_cg = coarse_grained(&snapshot(state).cloud(lp), grain);
+        let cloud = snapshot(state).cloud(lp);
+        let l_gathered = gathered_d(&cloud.body(), d);
+        let inertial_cg = coarse_grained(&cloud, grain);
         let l_all = state.points.iter().map(|p| p.x.x + lp).fold(0.0, Real::max);
         series.push(Sample {
             t: state.t,
-            l: f.length,
+            l: match opts.front_rule {
+                FrontRule::Links => f.length,
+                FrontRule::Gathered => l_gathered,
+            },
+            l_gathered,
             h: f.height,
             l_all,
             main_fraction: f.mass_fraction,
@@ -751,6 +650,10 @@ pub fn run_collapse_with_progress(
     let wall_s = clock.elapsed().as_secs_f64();
     drop(record);
     let final_front = front_linked(&col.state, lp, link);
+    let final_length = match opts.front_rule {
+        FrontRule::Links => final_front.length,
+        FrontRule::Gathered => gathered_d(&snapshot(&col.state).cloud(lp).body(), d),
+    };
     Ok(CollapseResult {
         spec: col.spec,
         points: col.state.points.len(),
@@ -758,7 +661,8 @@ pub fn run_collapse_with_progress(
         geostatic: geo,
         series,
         snapshots,
-        runout: (final_front.length - col.spec.l0) / col.spec.l0,
+        runout: (final_length - col.spec.l0) / col.spec.l0,
+        final_length,
         runout_dilated: (front_of_dilated(&col.state, lp, s).length - col.spec.l0) / col.spec.l0,
         runout_q99: (mass_quantile_x(&col.state, 0.99) + lp - col.spec.l0) / col.spec.l0,
         final_front,

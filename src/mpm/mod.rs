@@ -23,6 +23,7 @@
 pub mod bench;
 pub mod boundary;
 pub mod column;
+pub mod column_front;
 pub mod column_spec;
 pub mod energy;
 pub mod error;

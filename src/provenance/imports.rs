@@ -321,6 +321,18 @@ impl Graph {
                     }
                 }
             }
+            // A name this file re-exports and also uses in its own code (`pub use
+            // column_front::front_linked;` then `front_linked(…)` in a function body) is
+            // an import too: the re-export line is structure, the call is not.
+            if let Some(own) = g.reexports.get(&m) {
+                for (name, from) in own {
+                    if has_ident(c, name) {
+                        let mut p = from.clone();
+                        p.push(name.clone());
+                        found.push(p);
+                    }
+                }
+            }
             for path in found {
                 if let Some((target, name)) = g.resolve(&path)
                     && &target != f
@@ -440,6 +452,19 @@ impl Graph {
         out.sort();
         out
     }
+}
+
+/// Does `code` hold `name` as a whole identifier, other than in a `mod name;` declaration?
+fn has_ident(code: &str, name: &str) -> bool {
+    code.match_indices(name).any(|(k, _)| {
+        let before = code[..k].chars().next_back();
+        let after = code[k + name.len()..].chars().next();
+        let head = code[..k].trim_end();
+        let declared = head
+            .strip_suffix("mod")
+            .is_some_and(|h| !h.chars().next_back().is_some_and(is_ident));
+        !declared && !before.is_some_and(is_ident) && !after.is_some_and(is_ident)
+    })
 }
 
 /// The code without its `pub use` re-exports (structure, followed by `Graph::resolve`).

@@ -113,6 +113,10 @@ fn collapse_table(r: &CollapseResult) -> anyhow::Result<polars::prelude::DataFra
         ("l_m", s.iter().map(|v| v.length).collect()),
         ("h_m", s.iter().map(|v| v.height).collect()),
         ("runout_norm", s.iter().map(|v| (v.length - l0) / l0).collect()),
+        (
+            "runout_gathered_norm",
+            s.iter().map(|v| (v.length_gathered - l0) / l0).collect(),
+        ),
         ("h_over_l0", s.iter().map(|v| v.height / l0).collect()),
         ("ep_j", s.iter().map(|v| v.ep).collect()),
         ("ek_j", s.iter().map(|v| v.ekx + v.eky).collect()),
@@ -259,6 +263,7 @@ impl ColumnEngine for CollapseStageParams {
             g: p.dem.gravity,
             t: series(&|v| v.t),
             l: series(&|v| v.length),
+            l_gathered: series(&|v| v.length_gathered),
             h: series(&|v| v.height),
             ek: series(&|v| v.ekx + v.eky),
             ep: series(&|v| v.ep),

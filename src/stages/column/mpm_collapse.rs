@@ -110,6 +110,10 @@ pub fn series_table(r: &CollapseResult, g: f64) -> anyhow::Result<polars::prelud
         ("l_m", s.iter().map(|v| v.l).collect()),
         ("h_m", s.iter().map(|v| v.h).collect()),
         ("runout_norm", s.iter().map(|v| (v.l - l0) / l0).collect()),
+        (
+            "runout_gathered_norm",
+            s.iter().map(|v| (v.l_gathered - l0) / l0).collect(),
+        ),
         ("h_over_l0", s.iter().map(|v| v.h / l0).collect()),
         ("ep_j", s.iter().map(|v| v.e.potential).collect()),
         ("ek_j", s.iter().map(|v| v.e.kinetic).collect()),
@@ -257,6 +261,7 @@ impl ColumnEngine for CollapseParams {
             g,
             t: series(&|v| v.t),
             l: series(&|v| v.l),
+            l_gathered: series(&|v| v.l_gathered),
             h: series(&|v| v.h),
             ek: series(&|v| v.e.kinetic),
             ep: series(&|v| v.e.potential),
@@ -276,7 +281,7 @@ impl ColumnEngine for CollapseParams {
             mu_grain: f64::NAN,
             at_rest: r.stopped,
             runout_norm: r.runout,
-            lf_m: r.final_front.length,
+            lf_m: r.final_length,
             hf_m: r.final_front.height,
             energies: vec![
                 over_e0("E_p/E_0", 0, &|v| v.e.potential),
@@ -325,8 +330,12 @@ impl ColumnEngine for CollapseParams {
             ));
             if let Some(rule) = p.run.stop {
                 out.note(format!(
-                    "Stop rule (shared with the DEM): after {} τ_c, grid E_k < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Main mass: {}.",
+                    "Stop rule (shared with the DEM): after {} τ_c, grid E_k < {:.0e} E_0 and L, H moved < {} d̄/τ_c × {} τ_c over the last {} τ_c; upper bound {} τ_c. Front L(t) and run-out: {}. Main mass (H(t), H_f): {}.",
                     rule.t_min, rule.ke_ratio, rule.front_speed, rule.window, rule.window, rule.t_max,
+                    match p.run.front_rule {
+                        crate::analysis::gathered_front::FrontRule::Gathered => "the gathered length over every point (bins of one d̄, each counted by its covered length × min(1, thickness/d̄); docs/definitions.md D01), the rule the DEM columns also publish as runout_gathered_norm",
+                        crate::analysis::gathered_front::FrontRule::Links => "the right edge of the main mass",
+                    },
                     if p.run.link_grid { "points linked when they share a background-grid node (uGIMP support h + l_p: the MPM's interaction, as contact is the DEM's; the edge-gap sensitivity table is kept)".to_string() } else { format!("points (half-size l_p) linked when their edges are within {} d̄ (the DEM's D01 rule)", p.run.link_gap.map(|g| g.to_string()).unwrap_or_else(|| "1.5 spacings (centre distance)".into())) }
                 ));
             }

@@ -4,9 +4,10 @@
 //! Columns (docs/definitions.md D22): "the peak energy at τ_c is used as the energy
 //! available for the flow" — x = max_t E_k / (M g d̄), d̄ = 1.15 mm, computed as (max
 //! E_k / E_p0)·H_0/(2 d̄) since E_p0 = M g H_0/2 for a column of uniform packing (D22's own
-//! identity). Piles: x = E_0 per grain (D21). y = ΔL = (L_f − L_0)/L_0 for both. Reads the
-//! column sweeps' members (roles `col_dem`, `col_mpm`: scalars `a`, `h0_m`, `runout_norm`,
-//! table columns `ek_j`, `ep_j`) and the pile runs (roles `pile_dem`, `pile_mpm`: `e0_mgd`,
+//! identity). Piles: x = E_0 per grain (D21). y = ΔL = (L_f − L_0)/L_0 for both; for the
+//! columns, the gathered length (D01), the one rule both methods publish, so the MPM/DEM
+//! ratios compare like with like. Reads the column sweeps' members (roles `col_dem`,
+//! `col_mpm`: scalars `a`, `h0_m`, `runout_gathered_norm`, table columns `ek_j`, `ep_j`) and the pile runs (roles `pile_dem`, `pile_mpm`: `e0_mgd`,
 //! `dl`).
 
 use polars::prelude::{Column, DataFrame};
@@ -85,7 +86,7 @@ fn columns(ctx: &StageCtx, role: &str) -> anyhow::Result<Vec<(f64, f64, f64)>> {
         v.push((
             inp.scalar("a")?,
             column_energy(&ek, ep0, inp.scalar("h0_m")?),
-            inp.scalar("runout_norm")?,
+            inp.scalar("runout_gathered_norm")?,
         ));
     }
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
