@@ -239,7 +239,10 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
         };
         let mut why: Vec<String> = parts
             .iter()
-            .filter(|p| matches!(p.verdict, Verdict::Missed | Verdict::NotResolved))
+            .filter(|p| {
+                matches!(p.verdict, Verdict::Missed | Verdict::NotResolved)
+                    || (p.verdict == Verdict::NotRun && !p.note.is_empty())
+            })
             .map(|p| {
                 let mut s = String::new();
                 if parts.len() > 1 {
@@ -249,7 +252,8 @@ pub fn opening(j: &[Judged], profile: &str, paper: Option<&[Judged]>) -> String 
                 if !p.note.is_empty() {
                     let _ = write!(s, " ({})", esc(&p.note));
                 }
-                if let Some(d) = &p.row.diagnosis {
+                // a diagnosis explains a verdict; a row not run has none to explain
+                if let Some(d) = p.row.diagnosis.as_ref().filter(|_| p.verdict != Verdict::NotRun) {
                     let _ = write!(s, " — {}", esc(d));
                 }
                 s

@@ -329,10 +329,19 @@ pub(super) fn judged_without(
 ) -> Option<Vec<crate::claims::judge::Judged>> {
     let mut j = crate::claims::evaluate_dir(p, dir)?;
     for r in &mut j {
-        if r.row.measure.all_stages().iter().any(|s| not_fresh.contains(*s)) {
+        let stale: Vec<&str> = r
+            .row
+            .measure
+            .all_stages()
+            .into_iter()
+            .filter(|s| not_fresh.contains(*s))
+            .collect();
+        if let Some(first) = stale.first() {
             r.values.clear();
             r.verdict = crate::claims::judge::Verdict::NotRun;
-            r.note = "the committed result is stale (`granrepro status --profile paper`)".into();
+            r.note = format!(
+                "the committed result of `{first}` is not current: built from code or inputs changed since (`granrepro status --profile paper` says which); it is judged again when re-run"
+            );
         }
     }
     Some(j)
