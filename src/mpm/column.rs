@@ -14,7 +14,7 @@
 //! by the links of [`super::column_front`]); H = max(y + l_p) of the main mass.
 
 use super::boundary;
-pub use super::column_front::{front_linked, front_of, front_of_dilated, lengths_linked, mass_quantile_x};
+pub use super::column_front::{front_linked, front_of, front_of_dilated, mass_quantile_x};
 use super::energy::{Energies, energies};
 use super::error::MpmError;
 use super::geostatic::{self, GeostaticReport};
@@ -25,7 +25,7 @@ use super::solver::{PhaseTimes, Solver};
 use super::state::State;
 use super::watchdog::EnergyWatch;
 use crate::analysis::cloud::Cloud;
-use crate::analysis::front::{Front, Link};
+use crate::analysis::front::{Front, Link, front, lengths_for_gaps};
 use crate::analysis::gathered_front::{FrontRule, gathered_d};
 use crate::analysis::inertial::{Grain, coarse_grained};
 use crate::analysis::stop::{StopRule, Verdict};
@@ -563,10 +563,12 @@ pub fn run_collapse_with_progress(
     let initial = snapshot_with(&col.state, &params.material);
     let mut record = |state: &State, series: &mut Vec<Sample>| -> Energies {
         let e = energies(state, &el, g);
-        let f = front_linked(state, lp, link);
-        gap_lengths.push(lengths_linked(state, lp, &gaps));
+        // one set of bodies per sample for every front rule (the points, half-size l_p)
         let cloud = snapshot(state).cloud(lp);
-        let l_gathered = gathered_d(&cloud.body(), d);
+        let body = cloud.body();
+        let f = front(&body, link);
+        gap_lengths.push(lengths_for_gaps(&body, &gaps));
+        let l_gathered = gathered_d(&body, d);
         let inertial_cg = coarse_grained(&cloud, grain);
         let l_all = state.points.iter().map(|p| p.x.x + lp).fold(0.0, Real::max);
         series.push(Sample {

@@ -2,71 +2,52 @@
 //! of half-size l_p, linked by centre distance, edge gap or shared grid node; the mass
 //! quantile. Split from `column.rs`, which runs the collapse and samples these.
 
+use super::particles::Point;
 use super::state::State;
-use crate::analysis::front::{Body, Front, Link, front, lengths_for_gaps, main_mass};
+use crate::analysis::front::{Body, Front, Link, front, main_mass};
 use crate::math::Real;
+
+/// Material points as front bodies: squares of half-size `lp` at the points' positions,
+/// with their masses (the one construction every rule below reads).
+pub struct PointBodies {
+    x: Vec<Real>,
+    y: Vec<Real>,
+    half: Vec<Real>,
+    mass: Vec<Real>,
+}
+
+impl PointBodies {
+    /// The bodies of `points`, half-size `lp` [m].
+    pub fn new(points: &[Point], lp: Real) -> Self {
+        PointBodies {
+            x: points.iter().map(|p| p.x.x).collect(),
+            y: points.iter().map(|p| p.x.y).collect(),
+            half: vec![lp; points.len()],
+            mass: points.iter().map(|p| p.mass).collect(),
+        }
+    }
+    /// As a front [`Body`].
+    pub fn body(&self) -> Body<'_> {
+        Body {
+            x: &self.x,
+            y: &self.y,
+            half: &self.half,
+            mass: &self.mass,
+        }
+    }
+}
 
 /// Front of a state (D01).
 pub fn front_of(state: &State, lp: Real, spacing: Real) -> Front {
-    let n = state.points.len();
-    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-    }
-    let half = vec![lp; n];
     front(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
+        &PointBodies::new(&state.points, lp).body(),
         Link::Distance(1.5 * spacing),
     )
 }
 
 /// Front of a state with an explicit linking rule, points as bodies of half-size `lp`.
 pub fn front_linked(state: &State, lp: Real, link: Link) -> Front {
-    let n = state.points.len();
-    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-    }
-    let half = vec![lp; n];
-    front(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
-        link,
-    )
-}
-
-/// L for each edge gap of `gaps` [m], points as bodies of half-size `lp`.
-pub fn lengths_linked(state: &State, lp: Real, gaps: &[Real]) -> Vec<Real> {
-    let n = state.points.len();
-    let (mut x, mut y, mut m) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    for p in &state.points {
-        x.push(p.x.x);
-        y.push(p.x.y);
-        m.push(p.mass);
-    }
-    let half = vec![lp; n];
-    lengths_for_gaps(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
-        gaps,
-    )
+    front(&PointBodies::new(&state.points, lp).body(), link)
 }
 
 /// Front with links that follow the points' dilation: points i and j are linked when

@@ -7,7 +7,7 @@
 //! (`geostatic_friction_deg`) and the run's φ is restored at t = 0 (option ii of I7); the
 //! stress field is kept, velocities and plastic history reset.
 
-use crate::analysis::front::{Body, Link, front};
+use crate::analysis::front::{Link, front};
 use crate::analysis::pile::PileRun;
 use crate::analysis::pile::{
     Frame, FrameTimes, Profile, Sample, Sampled, StopRule, excitation, kinetic, sample_run, surface_at,
@@ -54,17 +54,8 @@ pub fn seed_points(params: &MpmParams, profile: &[(Real, Real)], l0: Real) -> Ve
 
 /// Front and height of the points (D01 MPM variant: linked within 1.5 s, L = max(x + l_p)).
 pub fn front_of_points(points: &[Point], lp: Real, s: Real) -> crate::analysis::front::Front {
-    let x: Vec<Real> = points.iter().map(|p| p.x.x).collect();
-    let y: Vec<Real> = points.iter().map(|p| p.x.y).collect();
-    let m: Vec<Real> = points.iter().map(|p| p.mass).collect();
-    let half = vec![lp; points.len()];
     front(
-        &Body {
-            x: &x,
-            y: &y,
-            half: &half,
-            mass: &m,
-        },
+        &super::column_front::PointBodies::new(points, lp).body(),
         Link::Distance(1.5 * s),
     )
 }
