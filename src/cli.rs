@@ -229,6 +229,10 @@ pub enum Cmd {
         /// in memory), not shuffled.
         #[arg(long)]
         lattice_order: bool,
+        /// Scaling only: the DEM's grains shuffled, then sorted by the engine along its
+        /// Hilbert curve (the order a mixed flow has after a sort, `sort_every`).
+        #[arg(long, conflicts_with = "lattice_order")]
+        sorted: bool,
         /// Scaling only: the DEM row alone (no MPM, no CD).
         #[arg(long)]
         dem_only: bool,
@@ -633,6 +637,7 @@ pub fn run_cli(cli: Cli) -> i32 {
             svg,
             max_n,
             lattice_order,
+            sorted,
             dem_only,
             scene_out,
         } => bench(
@@ -647,6 +652,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                 svg,
                 max_n,
                 lattice_order,
+                sorted,
                 dem_only,
                 scene_out,
             },

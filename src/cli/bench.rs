@@ -15,6 +15,7 @@ pub struct BenchOpts {
     pub(super) svg: Option<PathBuf>,
     pub(super) max_n: usize,
     pub(super) lattice_order: bool,
+    pub(super) sorted: bool,
     pub(super) dem_only: bool,
     pub(super) scene_out: Option<PathBuf>,
 }
@@ -304,8 +305,15 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
     };
     let order = if o.lattice_order {
         GrainOrder::Lattice
+    } else if o.sorted {
+        GrainOrder::Sorted(SCALING_SHUFFLE_SEED)
     } else {
         GrainOrder::Shuffled(SCALING_SHUFFLE_SEED)
+    };
+    let order_name = match order {
+        GrainOrder::Lattice => "lattice",
+        GrainOrder::Shuffled(_) => "shuffled",
+        GrainOrder::Sorted(_) => "sorted",
     };
     // work per size ~ n × steps: fewer steps for the big ones, at least 20
     let steps_for = |n: usize, base: u64| steps.unwrap_or((base * 10_000 / n as u64).clamp(20, base * 10));
@@ -335,7 +343,7 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
                         "{:.2} pairs, {:.2} contacts per grain, {} order, cpu/wall {:.2}",
                         p.pairs_per_grain,
                         p.contacts_per_grain,
-                        if o.lattice_order { "lattice" } else { "shuffled" },
+                        order_name,
                         p.cpu_s_per_step / p.s_per_step
                     );
                     p.s_per_step
@@ -451,8 +459,7 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
         let chart = Chart::log_log(
             format!("Cost growth: wall time per step vs size ({threads} thread(s))"),
             format!(
-                "granrepro bench scaling; DEM: settled column with rolling resistance + ledger, grains in {} order; MPM: GIMP + Mohr-Coulomb column; CD: Siconos deposit",
-                if o.lattice_order { "lattice" } else { "shuffled" }
+                "granrepro bench scaling; DEM: settled column with rolling resistance + ledger, grains in {order_name} order; MPM: GIMP + Mohr-Coulomb column; CD: Siconos deposit"
             ),
             "grains / material points",
             "wall time per step [s]",

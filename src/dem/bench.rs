@@ -302,6 +302,9 @@ pub enum GrainOrder {
     /// The same grains shuffled (Fisher–Yates, [`SplitMix64`] with this seed), contact
     /// histories following their grains: the order a long mixed flow leaves.
     Shuffled(u64),
+    /// Shuffled with this seed, then sorted by the world along its Hilbert curve
+    /// ([`World::sort_now`]): the order a mixed flow has after a sort.
+    Sorted(u64),
 }
 
 /// Seed of `bench scaling`'s shuffle.
@@ -416,7 +419,7 @@ pub fn scaling_scene(base: &World, n: usize, order: GrainOrder) -> Result<World,
             }
         }
     }
-    if let GrainOrder::Shuffled(seed) = order {
+    if let GrainOrder::Shuffled(seed) | GrainOrder::Sorted(seed) = order {
         // grain order[p] becomes grain p; histories follow their grains
         let order = shuffled_order(st.len(), seed);
         let mut new_of = vec![0u32; order.len()];
@@ -442,6 +445,10 @@ pub fn scaling_scene(base: &World, n: usize, order: GrainOrder) -> Result<World,
     walls.retain(|w| w.name != "gate");
     let mut w = World::new(base.params.clone(), st, walls, None)?;
     w.restore_histories(&hist);
+    if let GrainOrder::Sorted(_) = order {
+        w.sort_min_grains = 0;
+        w.sort_now();
+    }
     Ok(w)
 }
 

@@ -294,7 +294,7 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
         while next_snap < snaps.len() && snaps[next_snap] <= w.t + 0.5 * params.dt {
             snapshots.push(Snapshot {
                 t: w.t,
-                state: w.state.clone(),
+                state: w.state_by_id(),
             });
             next_snap += 1;
         }
@@ -315,7 +315,7 @@ pub fn collapse(column: &Column, params: &DemParams, cp: &CollapseParams) -> Res
     let wall_s = started.elapsed().as_secs_f64();
     snapshots.push(Snapshot {
         t: w.t,
-        state: w.state.clone(),
+        state: w.state_by_id(),
     });
     Ok(CollapseResult {
         l0: column.l0,

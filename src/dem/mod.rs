@@ -22,6 +22,7 @@ pub mod energy;
 pub mod error;
 pub mod integrate;
 pub mod neighbors;
+pub mod order;
 pub mod params;
 pub(crate) mod passes;
 pub mod pile;

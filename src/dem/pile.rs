@@ -97,7 +97,7 @@ pub fn prepare_pile(radii: &[Real], params: &DemParams, pp: &PileParams) -> Resu
     }
     let settled = r < pp.settle_ratio && vm < v_rest;
     let relax_time = w.t;
-    let s = w.state;
+    let s = w.state_by_id();
     let f = front(
         &Body {
             x: &s.x,
@@ -178,7 +178,7 @@ pub fn run_pile_frames(
         g,
         |w| w.t,
         |w| grain_sample(w.t, &w.state, link),
-        |w| grain_frame(w.t, &w.state),
+        |w| grain_frame(w.t, &w.state_by_id()),
         |w| w.run_until(w.t + dts),
     )?;
     let l0 = run.samples[0].l;
@@ -187,7 +187,7 @@ pub fn run_pile_frames(
         frames: shots,
         stopped,
     } = run;
-    let st = &w.state;
+    let st = &w.state_by_id();
     Ok(PileRun {
         samples,
         l0,
@@ -205,5 +205,5 @@ pub fn run_pile_frames(
 pub fn requench(s: &State, params: &DemParams, walls: Vec<Wall>, ratio: Real) -> Result<State, DemError> {
     let mut w = World::new(params.clone(), s.clone(), walls, None)?;
     quench(&mut w, ratio, 20_000)?;
-    Ok(w.state)
+    Ok(w.state_by_id())
 }

@@ -258,12 +258,12 @@ pub fn ballistic_deposition(
     }
     settle(&mut world, dep.settle_ratio * 10.0, 0.01, dep.max_settle_time)?;
     // back to the run parameters, then settle for real
-    let mut state = world.state.clone();
+    let mut state = world.state_by_id();
     state.stop();
     let mut w2 = World::new(run.clone(), state, box_walls(dep.width), None)?;
     quench(&mut w2, dep.settle_ratio, 20_000)?;
     let rep = settle(&mut w2, dep.settle_ratio, 0.0, dep.max_settle_time)?;
-    Ok((w2.state, rep))
+    Ok((w2.state_by_id(), rep))
 }
 
 /// Remove grains reaching above `h0` (top edge) or right of `l0`, keep the rest.

@@ -28,6 +28,7 @@
 mod data;
 mod history;
 mod schedule;
+mod sort;
 
 pub use crate::dem::scratch::{GRAIN_CHUNK, MAX_WALLS, PAIR_CHUNK, PAR_MIN_ITEMS};
 pub use data::{SavedHistories, StepInfo, World};
@@ -81,10 +82,12 @@ impl World {
             ledger: Ledger::default(),
             e0: 0.0,
             energy_check: true,
+            grain_ids: Vec::new(),
             timers: PhaseTimers::default(),
             paths: Default::default(),
             info: StepInfo::default(),
             team_min_grains: crate::dem::team::TEAM_MIN_GRAINS,
+            sort_min_grains: crate::dem::order::SORT_MIN_GRAINS,
             team_probe: true,
             timing: false,
             solo_ref: None,
@@ -112,7 +115,10 @@ impl World {
             fdone: Flags::default(),
             pdone: Flags::default(),
             forces_valid: false,
+            next_sort: 0,
+            sorts: 0,
         };
+        w.grain_ids = (0..w.state.len() as u32).collect();
         w.resize_scratch();
         w.rebuild();
         w.e0 = w.energies().total();
@@ -294,6 +300,9 @@ impl World {
     }
 
     fn refresh_neighbors(&mut self) {
+        if self.params.sort_every > 0 && self.steps >= self.next_sort {
+            self.sort_grains();
+        }
         self.rebuild();
     }
 

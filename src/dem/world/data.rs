@@ -54,6 +54,10 @@ pub struct World {
     pub e0: Real,
     /// Whether the watchdog's energy-rise check applies (off for driven scenes without ledger).
     pub energy_check: bool,
+    /// Original index of each grain (the index it had when the world was made, or when it
+    /// was appended): a sort ([`DemParams::sort_every`]) renames grains, this keeps who is
+    /// who. The identity until the first sort.
+    pub grain_ids: Vec<u32>,
     /// Phase timers.
     pub timers: PhaseTimers,
     /// Optional physics paths taken (leave-out counters).
@@ -64,6 +68,9 @@ pub struct World {
     /// multi-thread pool (default [`crate::dem::team::TEAM_MIN_GRAINS`]; results are the
     /// same either way — `bench dem-crossover` sets it to measure the crossover).
     pub team_min_grains: usize,
+    /// Below this many grains the world is never sorted (default
+    /// [`crate::dem::order::SORT_MIN_GRAINS`]; the tests set 0).
+    pub sort_min_grains: usize,
     /// Whether `run` times steps alone against steps with the team and keeps the faster
     /// (default true; `bench dem-crossover` turns it off to time the team itself).
     pub team_probe: bool,
@@ -113,6 +120,10 @@ pub struct World {
     pub(crate) fdone: Flags,
     pub(crate) pdone: Flags,
     pub(crate) forces_valid: bool,
+    /// Step at or after which the next neighbour rebuild sorts the grains first.
+    pub(crate) next_sort: u64,
+    /// Number of sorts so far.
+    pub(crate) sorts: u64,
     /// Inactive walls whose contact histories have been released.
     pub(crate) wall_cleared: [bool; MAX_WALLS],
     /// Walls as they were at the end of the last `run` (edits in between invalidate forces).

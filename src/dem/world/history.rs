@@ -11,6 +11,14 @@ impl World {
     /// kept; after removing grains build a new `World` instead).
     pub fn resize_scratch(&mut self) {
         let n = self.state.len();
+        // appended grains take the next original indices; after a removal the names
+        // start over
+        let known = self.grain_ids.len();
+        if known > n {
+            self.grain_ids = (0..n as u32).collect();
+        } else {
+            self.grain_ids.extend(known as u32..n as u32);
+        }
         for v in [&mut self.fx, &mut self.fy, &mut self.tq] {
             v.clear();
             v.resize(n, 0.0);
