@@ -236,6 +236,10 @@ pub enum Cmd {
         /// Scaling only: the DEM row alone (no MPM, no CD).
         #[arg(long)]
         dem_only: bool,
+        /// cd-dense only: the deposit's columns × rows of disks (default 40x25; the chapter's
+        /// pile has 13,000 disks, e.g. 160x80).
+        #[arg(long, default_value = "40x25")]
+        dense_size: String,
         /// cd-dense only: write each timed scene here as CSV (`cd-dense-CASE.csv`: x, y, r, m,
         /// vx, vy per disk, SI per metre), the input of `bench/siconos/dense.py`.
         #[arg(long)]
@@ -639,6 +643,7 @@ pub fn run_cli(cli: Cli) -> i32 {
             lattice_order,
             sorted,
             dem_only,
+            dense_size,
             scene_out,
         } => bench(
             engine,
@@ -654,6 +659,7 @@ pub fn run_cli(cli: Cli) -> i32 {
                 lattice_order,
                 sorted,
                 dem_only,
+                dense_size,
                 scene_out,
             },
         ),

@@ -130,16 +130,21 @@ pub fn dense_scene(ncol: usize, nrow: usize, settle_s: Real, kick_mgd: Real) -> 
 }
 
 /// Time `steps` steps of a scene from [`dense_scene`] in a pool of `threads` (box width
-/// `width`, for the packing fraction).
+/// `width`, for the packing fraction), the sweeps in key order or `coloured`
+/// (`CdParams::coloured_sweeps`).
 pub fn run_scene(
     case: &str,
     scene: &(State, Vec<Wall>),
     width: Real,
     threads: usize,
     steps: u64,
+    coloured: bool,
 ) -> Result<BenchResult, CdError> {
     in_pool(threads, || {
-        let params = siconos_params();
+        let params = CdParams {
+            coloured_sweeps: coloured,
+            ..siconos_params()
+        };
         let mut w = World::new(params.clone(), scene.0.clone(), scene.1.clone(), None)?;
         let t0 = Instant::now();
         let mut csum = 0.0;
@@ -204,7 +209,7 @@ mod tests {
     fn the_dense_scene_is_settled_and_kicked_with_its_energy() {
         let scene = dense_scene(10, 8, 2.0, 0.0).unwrap();
         assert!(scene.0.vx.iter().chain(&scene.0.vy).all(|v| *v == 0.0), "stopped");
-        let r = run_scene("t", &scene, deposit_width(10), 1, 5).unwrap();
+        let r = run_scene("t", &scene, deposit_width(10), 1, 5, false).unwrap();
         assert!(
             r.contacts >= 1.5 * r.particles as f64,
             "contacts {} for {} disks",

@@ -13,12 +13,13 @@
 //!   0 ≤ U_n ⊥ P_n ≥ 0, U = (u⁺ + ε u⁻)/(1 + ε) (ε applied on impacts, u⁻_n < 0).
 //! - Coulomb: |P_t| ≤ μ P_n, sticking U_t = 0, sliding P_t = −μ P_n sign U_t; solved
 //!   exactly per contact with its Delassus block W = H M⁻¹ Hᵀ ([`solver::local_solve`]).
-//! - NLGS in fixed key order, warm-started by contact key, under-relaxation ω; converged
-//!   on ‖ΔP‖/‖P‖ ≤ tol and the natural-map residual ([`solver`]).
+//! - NLGS in fixed key order (or colour class by colour class on the thread pool,
+//!   [`colour`]), warm-started by contact key, under-relaxation ω; converged on
+//!   ‖ΔP‖/‖P‖ ≤ tol and the natural-map residual ([`solver`]).
 //! - Ledger ([`energy`]): E_k + E_p + D_coll + D_fric + D_θ = E_0 + W, exact to round-off.
 //!
 //! Files: `params`, `error`, `body` (hot AoS body records, clumps), `contacts` (index set,
-//! Delassus, warm start), `solver` (NLGS), `preflight`, `energy`, `world` (the step);
+//! Delassus, warm start), `solver` (NLGS), `colour` (its parallel sweep), `preflight`, `energy`, `world` (the step);
 //! drivers: `shear` (periodic shear → μ(I)), `pile` (deposit, impact, work-precision),
 //! `bench`. Grain state and the Verlet cell list are the DEM's ([`crate::dem::State`],
 //! [`crate::dem::neighbors`]). Rolling resistance (|M_r| ≤ μ_r r_eff P_n) is optional and off
@@ -26,6 +27,7 @@
 
 pub mod bench;
 pub mod body;
+pub mod colour;
 pub mod contacts;
 pub mod energy;
 pub mod error;

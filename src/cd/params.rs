@@ -62,6 +62,11 @@ pub struct CdParams {
     pub max_iterations: u32,
     /// Under-relaxation ω ∈ (0, 1] of the local solution (1: plain NLGS).
     pub relaxation: Real,
+    /// Sweep the contacts colour class by colour class, each class shared out on the
+    /// thread pool (`src/cd/colour.rs`), instead of in key order on one thread. The same
+    /// solver and tests in another order of updates: not the same bits as the key order,
+    /// the same at any thread count. Default false.
+    pub coloured_sweeps: bool,
     /// Verlet skin of the pair list as a multiple of the alert distance (≥ 2). 4: rebuild
     /// once a grain moved 1.5 alert distances.
     pub skin_factor: Real,
@@ -90,6 +95,7 @@ impl Default for CdParams {
             residual_tolerance: 1e-3,
             max_iterations: 4000,
             relaxation: 1.0,
+            coloured_sweeps: false,
             skin_factor: 4.0,
             max_penetration: 0.05,
             energy_rise: 1e-3,

@@ -13,7 +13,9 @@
 //! of one sweep η = ‖ΔP‖₂/‖P‖₂ ≤ `tolerance` (LMGC90 "Quad"-like); once it passes, (2) the
 //! natural-map residual r = ‖P − proj_K(P − ρ q̂)‖₂/‖(P, ρq)‖₂, ρ = 1/W_nn, q̂ = (q_n + μ|q_t|, q_t)
 //! (De Saxcé), ≤ `residual_tolerance`. `max_iterations` caps the sweeps; a capped step is
-//! reported unconverged. Plain sequential sweeps: the result does not depend on threads.
+//! reported unconverged. Sequential sweeps in key order, or (`CdParams::coloured_sweeps`)
+//! colour class by colour class on the thread pool ([`crate::cd::colour`]): the result does
+//! not depend on the thread count either way.
 
 use crate::cd::body::Body;
 use crate::cd::contacts::Row;
@@ -89,20 +91,47 @@ pub fn relative_velocity(r: &Row, va: &[Real; 3], vb: &[Real; 3]) -> [Real; 2] {
     ]
 }
 
+/// Where a sweep reads and writes the body velocities: the body slice (a sequential
+/// sweep) or a shared view whose rows do not collide (a colour class, [`crate::cd::colour`]).
+pub(crate) trait BodyStore {
+    /// Body `i`.
+    fn body(&self, i: u32) -> Body;
+    /// Store body `i`'s new velocity.
+    fn put_v(&mut self, i: u32, v: [Real; 3]);
+}
+
+impl BodyStore for [Body] {
+    #[inline(always)]
+    fn body(&self, i: u32) -> Body {
+        self[i as usize]
+    }
+    #[inline(always)]
+    fn put_v(&mut self, i: u32, v: [Real; 3]) {
+        self[i as usize].v = v;
+    }
+}
+
 /// Apply impulse increment (dP_n, dP_t) of a row to its two bodies.
 #[inline(always)]
 pub fn apply(r: &Row, bodies: &mut [Body], dp: [Real; 2]) {
+    apply_to(r, bodies, dp)
+}
+
+#[inline(always)]
+pub(crate) fn apply_to<S: BodyStore + ?Sized>(r: &Row, bodies: &mut S, dp: [Real; 2]) {
     let (n, t) = (r.n, [-r.n[1], r.n[0]]);
     let px = dp[0] * n[0] + dp[1] * t[0];
     let py = dp[0] * n[1] + dp[1] * t[1];
-    let b = &mut bodies[r.b as usize];
+    let mut b = bodies.body(r.b);
     b.v[0] += b.inv[0] * px;
     b.v[1] += b.inv[1] * py;
     b.v[2] -= b.inv[2] * r.rb * dp[1];
-    let a = &mut bodies[r.a as usize];
+    bodies.put_v(r.b, b.v);
+    let mut a = bodies.body(r.a);
     a.v[0] -= a.inv[0] * px;
     a.v[1] -= a.inv[1] * py;
     a.v[2] -= a.inv[2] * r.ra * dp[1];
+    bodies.put_v(r.a, a.v);
 }
 
 /// Solver settings (from [`CdParams`](crate::cd::CdParams)).
@@ -116,6 +145,9 @@ pub struct Settings {
     pub max_iterations: u32,
     /// Under-relaxation ω.
     pub relaxation: Real,
+    /// Sweep the contacts by colour classes, each class shared out on the thread pool
+    /// ([`crate::cd::colour`]); else in key order on this thread.
+    pub coloured: bool,
 }
 
 /// Natural-map residual ‖P − proj_K(P − ρ q̂)‖₂ / ‖(P, ρq)‖₂ of the current state (no
@@ -156,10 +188,17 @@ pub fn project_cone(z: [Real; 2], mu: Real) -> [Real; 2] {
 /// Apply a rolling moment impulse increment dM (+dM on b, −dM on a).
 #[inline(always)]
 pub fn apply_rolling(r: &Row, bodies: &mut [Body], dm: Real) {
-    let b = &mut bodies[r.b as usize];
+    apply_rolling_to(r, bodies, dm)
+}
+
+#[inline(always)]
+fn apply_rolling_to<S: BodyStore + ?Sized>(r: &Row, bodies: &mut S, dm: Real) {
+    let mut b = bodies.body(r.b);
     b.v[2] += b.inv[2] * dm;
-    let a = &mut bodies[r.a as usize];
+    bodies.put_v(r.b, b.v);
+    let mut a = bodies.body(r.a);
     a.v[2] -= a.inv[2] * dm;
+    bodies.put_v(r.a, a.v);
 }
 
 /// Run NLGS sweeps. On entry the bodies hold the free velocities plus the warm-start
@@ -173,9 +212,75 @@ pub fn gauss_seidel(
     s: &Settings,
     roll: Option<(&mut [Real], &[Real], Real)>,
 ) -> SolveInfo {
-    match roll {
-        None => sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
-        Some((mr, re, mu_r)) => sweeps::<true>(rows, bodies, s, mr, re, mu_r),
+    match (roll, s.coloured) {
+        (None, false) => sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
+        (Some((mr, re, mu_r)), false) => sweeps::<true>(rows, bodies, s, mr, re, mu_r),
+        (None, true) => crate::cd::colour::sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
+        (Some((mr, re, mu_r)), true) => crate::cd::colour::sweeps::<true>(rows, bodies, s, mr, re, mu_r),
+    }
+}
+
+/// One contact's update in a sweep: its (P_n, P_t) block, then (with `ROLL`) its rolling
+/// moment with P_n fixed, adding this contact's |ΔP|² and |P|² to the sweep's `sums` (in
+/// the order the sequential sweep always added them).
+#[inline(always)]
+pub(crate) fn update_row<const ROLL: bool, S: BodyStore + ?Sized>(
+    r: &mut Row,
+    mr: &mut Real,
+    re: Real,
+    mu_r: Real,
+    omega: Real,
+    bodies: &mut S,
+    sums: &mut (Real, Real),
+) {
+    let va = bodies.body(r.a).v;
+    let vb = bodies.body(r.b).v;
+    let u = relative_velocity(r, &va, &vb);
+    // velocity this contact would see without its own impulse, plus the bias
+    let q0 = [
+        u[0] - (r.w[0] * r.p[0] + r.w[1] * r.p[1]) + r.bias[0],
+        u[1] - (r.w[1] * r.p[0] + r.w[2] * r.p[1]) + r.bias[1],
+    ];
+    let mut p = local_solve(r.w, r.mu, q0);
+    if omega != 1.0 {
+        p = [
+            omega * p[0] + (1.0 - omega) * r.p[0],
+            omega * p[1] + (1.0 - omega) * r.p[1],
+        ];
+    }
+    let dp = [p[0] - r.p[0], p[1] - r.p[1]];
+    if dp[0] != 0.0 || dp[1] != 0.0 {
+        apply_to(r, bodies, dp);
+        r.p = p;
+    }
+    sums.0 += dp[0] * dp[0] + dp[1] * dp[1];
+    sums.1 += p[0] * p[0] + p[1] * p[1];
+    if ROLL {
+        let (ba, bb) = (bodies.body(r.a), bodies.body(r.b));
+        let wrr = ba.inv[2] + bb.inv[2];
+        if wrr > 0.0 {
+            let lim = mu_r * re * r.p[0];
+            let m = (*mr - (bb.v[2] - ba.v[2]) / wrr).clamp(-lim, lim);
+            let dm = m - *mr;
+            if dm != 0.0 {
+                apply_rolling_to(r, bodies, dm);
+                *mr = m;
+            }
+            let (dmr, mrr) = (dm / re, m / re);
+            sums.0 += dmr * dmr;
+            sums.1 += mrr * mrr;
+        }
+    }
+}
+
+/// η of a sweep from its sums.
+pub(crate) fn change(dsum: Real, psum: Real) -> Real {
+    if psum > 0.0 {
+        (dsum / psum).sqrt()
+    } else if dsum > 0.0 {
+        Real::INFINITY
+    } else {
+        0.0
     }
 }
 
@@ -194,55 +299,16 @@ fn sweeps<const ROLL: bool>(
     }
     let omega = s.relaxation;
     for it in 1..=s.max_iterations {
-        let (mut dsum, mut psum) = (0.0, 0.0);
+        let mut sums = (0.0, 0.0);
         for (k, r) in rows.iter_mut().enumerate() {
-            let va = bodies[r.a as usize].v;
-            let vb = bodies[r.b as usize].v;
-            let u = relative_velocity(r, &va, &vb);
-            // velocity this contact would see without its own impulse, plus the bias
-            let q0 = [
-                u[0] - (r.w[0] * r.p[0] + r.w[1] * r.p[1]) + r.bias[0],
-                u[1] - (r.w[1] * r.p[0] + r.w[2] * r.p[1]) + r.bias[1],
-            ];
-            let mut p = local_solve(r.w, r.mu, q0);
-            if omega != 1.0 {
-                p = [
-                    omega * p[0] + (1.0 - omega) * r.p[0],
-                    omega * p[1] + (1.0 - omega) * r.p[1],
-                ];
-            }
-            let dp = [p[0] - r.p[0], p[1] - r.p[1]];
-            if dp[0] != 0.0 || dp[1] != 0.0 {
-                apply(r, bodies, dp);
-                r.p = p;
-            }
-            dsum += dp[0] * dp[0] + dp[1] * dp[1];
-            psum += p[0] * p[0] + p[1] * p[1];
             if ROLL {
-                let (ba, bb) = (&bodies[r.a as usize], &bodies[r.b as usize]);
-                let wrr = ba.inv[2] + bb.inv[2];
-                if wrr > 0.0 {
-                    let lim = mu_r * re[k] * r.p[0];
-                    let m = (mr[k] - (bb.v[2] - ba.v[2]) / wrr).clamp(-lim, lim);
-                    let dm = m - mr[k];
-                    if dm != 0.0 {
-                        apply_rolling(r, bodies, dm);
-                        mr[k] = m;
-                    }
-                    let (dmr, mrr) = (dm / re[k], m / re[k]);
-                    dsum += dmr * dmr;
-                    psum += mrr * mrr;
-                }
+                update_row::<true, _>(r, &mut mr[k], re[k], mu_r, omega, bodies, &mut sums);
+            } else {
+                update_row::<false, _>(r, &mut 0.0, 1.0, 0.0, omega, bodies, &mut sums);
             }
         }
         info.iterations = it;
-        info.change = if psum > 0.0 {
-            (dsum / psum).sqrt()
-        } else if dsum > 0.0 {
-            Real::INFINITY
-        } else {
-            0.0
-        };
+        info.change = change(sums.0, sums.1);
         if info.change <= s.tolerance {
             info.residual = residual(rows, bodies);
             if info.residual <= s.residual_tolerance {

@@ -17,6 +17,7 @@ pub struct BenchOpts {
     pub(super) lattice_order: bool,
     pub(super) sorted: bool,
     pub(super) dem_only: bool,
+    pub(super) dense_size: String,
     pub(super) scene_out: Option<PathBuf>,
 }
 
@@ -481,10 +482,23 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
 }
 
 /// `bench cd-dense`: the CD engine on the dense deposit, at rest and kicked (13 mgd), one
-/// JSON line per case and thread count with contact·iterations/s and sweeps per step.
+/// JSON line per case, sweep order (key, coloured) and thread count with
+/// contact·iterations/s and sweeps per step.
 fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
     use crate::cd::bench::{dense_scene, deposit_width, run_scene};
-    let (ncol, nrow, settle_s) = (40, 25, 6.0);
+    let Some((ncol, nrow)) = o
+        .dense_size
+        .split_once('x')
+        .and_then(|(c, r)| Some((c.parse::<usize>().ok()?, r.parse::<usize>().ok()?)))
+        .filter(|&(c, r)| c >= 2 && r >= 1)
+    else {
+        eprintln!(
+            "error: bench cd-dense: --dense-size {:?}: expected COLSxROWS with COLS >= 2, ROWS >= 1 (e.g. 40x25)",
+            o.dense_size
+        );
+        return 2;
+    };
+    let settle_s = 6.0;
     for (case, kick) in [("rest", 0.0), ("kick13mgd", 13.0)] {
         let scene = match dense_scene(ncol, nrow, settle_s, kick) {
             Ok(s) => s,
@@ -509,16 +523,19 @@ fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
                 return 2;
             }
         }
-        for &t in threads {
-            match run_scene(&name, &scene, deposit_width(ncol), t, steps) {
-                Ok(r) => {
-                    let mut line = cd_line("cd-dense", &r);
-                    line["sweeps_per_step"] = serde_json::json!(r.iterations as f64 / r.steps.max(1) as f64);
-                    println!("{line}")
-                }
-                Err(e) => {
-                    eprintln!("error: bench cd-dense: {e}");
-                    return 1;
+        for (order, coloured) in [("key", false), ("coloured", true)] {
+            for &t in threads {
+                match run_scene(&name, &scene, deposit_width(ncol), t, steps, coloured) {
+                    Ok(r) => {
+                        let mut line = cd_line("cd-dense", &r);
+                        line["sweeps_per_step"] = serde_json::json!(r.iterations as f64 / r.steps.max(1) as f64);
+                        line["sweep_order"] = serde_json::json!(order);
+                        println!("{line}")
+                    }
+                    Err(e) => {
+                        eprintln!("error: bench cd-dense: {e}");
+                        return 1;
+                    }
                 }
             }
         }
