@@ -123,10 +123,6 @@ pub(crate) fn sweeps<const ROLL: bool>(
     mu_r: Real,
 ) -> SolveInfo {
     let mut info = SolveInfo::default();
-    if rows.is_empty() {
-        info.converged = true;
-        return info;
-    }
     let col = colour(rows, bodies);
     // the rows (and rolling moments) laid out class by class, so that a chunk reads its
     // contacts in one run of memory; copied back after the solve

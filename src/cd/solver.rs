@@ -212,6 +212,12 @@ pub fn gauss_seidel(
     s: &Settings,
     roll: Option<(&mut [Real], &[Real], Real)>,
 ) -> SolveInfo {
+    if rows.is_empty() {
+        return SolveInfo {
+            converged: true,
+            ..SolveInfo::default()
+        };
+    }
     match (roll, s.coloured) {
         (None, false) => sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
         (Some((mr, re, mu_r)), false) => sweeps::<true>(rows, bodies, s, mr, re, mu_r),
@@ -293,10 +299,6 @@ fn sweeps<const ROLL: bool>(
     mu_r: Real,
 ) -> SolveInfo {
     let mut info = SolveInfo::default();
-    if rows.is_empty() {
-        info.converged = true;
-        return info;
-    }
     let omega = s.relaxation;
     for it in 1..=s.max_iterations {
         let mut sums = (0.0, 0.0);

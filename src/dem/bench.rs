@@ -427,15 +427,8 @@ pub fn scaling_scene(base: &World, n: usize, order: GrainOrder) -> Result<World,
             new_of[a] = p as u32;
         }
         st = st.permuted(&order);
-        for (a, b, h) in hist.pairs.iter_mut() {
-            (*a, *b) = (new_of[*a as usize], new_of[*b as usize]);
-            if *a > *b {
-                // the pair's i and j swap: n and t turn over, so ξ_t and F_t (along t) stay,
-                // and the rolling rotation ω_i − ω_j and moment on i change sign
-                std::mem::swap(a, b);
-                h.rolling = -h.rolling;
-                h.mr = -h.mr;
-            }
+        for p in hist.pairs.iter_mut() {
+            *p = p.2.renamed(new_of[p.0 as usize], new_of[p.1 as usize]);
         }
         for (_, a, _) in hist.walls.iter_mut() {
             *a = new_of[*a as usize];
@@ -553,14 +546,7 @@ mod tests {
         let mut mapped: Vec<_> = hb
             .pairs
             .iter()
-            .map(|&(i, j, mut h)| {
-                let (i, j) = (order[i as usize] as u32, order[j as usize] as u32);
-                if i > j {
-                    h.rolling = -h.rolling;
-                    h.mr = -h.mr;
-                }
-                (i.min(j), i.max(j), h)
-            })
+            .map(|&(i, j, h)| h.renamed(order[i as usize] as u32, order[j as usize] as u32))
             .collect();
         mapped.sort_by_key(|p| (p.0, p.1));
         assert_eq!(mapped, ha.pairs);

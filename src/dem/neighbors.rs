@@ -284,20 +284,12 @@ impl NeighborList {
 
     /// Rename the grains of the listed pairs (`new_of[old]`) ahead of a rebuild: the pairs
     /// and their histories are kept, keyed again by (i < j) and sorted, for the rebuild's
-    /// history merge. A pair whose i and j swap turns over: its normal and tangent turn
-    /// with it, so ξ_t and F_t (along t) keep their values, and the rolling rotation
-    /// (ω_i − ω_j) and the moment on i change sign. Everything else of the list is stale
+    /// history merge (a pair whose i and j swap turns over: [`ContactState::renamed`]).
+    /// Everything else of the list is stale
     /// until [`NeighborList::build`] runs (`x0` is cleared so that it must).
     pub fn relabel(&mut self, new_of: &[u32]) {
         let mut pairs: Vec<(u32, u32, ContactState)> = (0..self.pi.len())
-            .map(|k| {
-                let (a, b, mut h) = (new_of[self.pi[k] as usize], new_of[self.pj[k] as usize], self.hist[k]);
-                if a > b {
-                    h.rolling = -h.rolling;
-                    h.mr = -h.mr;
-                }
-                (a.min(b), a.max(b), h)
-            })
+            .map(|k| self.hist[k].renamed(new_of[self.pi[k] as usize], new_of[self.pj[k] as usize]))
             .collect();
         pairs.sort_by_key(|p| (p.0, p.1));
         self.pi.clear();

@@ -57,6 +57,25 @@ pub struct ContactState {
     pub mr: Real,
 }
 
+impl ContactState {
+    /// The history of a contact whose grains are renamed to `a` and `b`, keyed (i < j) again:
+    /// when the names swap the pair's i and j, its normal and tangent turn over, so ξ_t and
+    /// F_t (along t) keep their values and the rolling rotation ω_i − ω_j and the moment on
+    /// i change sign. Used by the memory sort and the benchmark's shuffle.
+    pub fn renamed(self, a: u32, b: u32) -> (u32, u32, ContactState) {
+        if a > b {
+            let turned = ContactState {
+                rolling: -self.rolling,
+                mr: -self.mr,
+                ..self
+            };
+            (b, a, turned)
+        } else {
+            (a, b, self)
+        }
+    }
+}
+
 /// How a grain moves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Motion {
