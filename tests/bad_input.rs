@@ -809,6 +809,19 @@ fn corpus() -> Vec<Case> {
             &["simulate", "scene.yaml", "--out", "pipeline.yaml"],
             &["pipeline.yaml", "--out"]
         ),
+        // -- benchmarks (refused before the machine line is printed)
+        case!(
+            "bench cd-dense size malformed",
+            PSD,
+            &["bench", "cd-dense", "--dense-size", "40by25"],
+            &["--dense-size", "40by25", "COLSxROWS"]
+        ),
+        case!(
+            "bench cd-dense size too small",
+            PSD,
+            &["bench", "cd-dense", "--dense-size", "1x0"],
+            &["--dense-size", "1x0", "COLS >= 2"]
+        ),
     ]
 }
 

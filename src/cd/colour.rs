@@ -19,7 +19,7 @@
 
 use crate::cd::body::Body;
 use crate::cd::contacts::Row;
-use crate::cd::solver::{BodyStore, Settings, SolveInfo, change, residual, update_row};
+use crate::cd::solver::{BodyStore, Settings, SolveInfo, change, residual, solve, update_row};
 use crate::dem::scratch::chunked;
 use crate::math::Real;
 use crate::shared::SharedMut;
@@ -113,8 +113,19 @@ impl BodyStore for SharedBodies {
     }
 }
 
+/// The `gauss_seidel` phase with colour-class sweeps: as [`crate::cd::solver::gauss_seidel`]
+/// (the same arguments, tests and cap), the contacts visited class by class.
+pub fn gauss_seidel(
+    rows: &mut [Row],
+    bodies: &mut [Body],
+    s: &Settings,
+    roll: Option<(&mut [Real], &[Real], Real)>,
+) -> SolveInfo {
+    solve(rows, bodies, s, roll, sweeps::<false>, sweeps::<true>)
+}
+
 /// NLGS sweeps class by class (same convergence tests and cap as the key-order sweep).
-pub(crate) fn sweeps<const ROLL: bool>(
+fn sweeps<const ROLL: bool>(
     rows: &mut [Row],
     bodies: &mut [Body],
     s: &Settings,

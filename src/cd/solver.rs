@@ -13,9 +13,9 @@
 //! of one sweep η = ‖ΔP‖₂/‖P‖₂ ≤ `tolerance` (LMGC90 "Quad"-like); once it passes, (2) the
 //! natural-map residual r = ‖P − proj_K(P − ρ q̂)‖₂/‖(P, ρq)‖₂, ρ = 1/W_nn, q̂ = (q_n + μ|q_t|, q_t)
 //! (De Saxcé), ≤ `residual_tolerance`. `max_iterations` caps the sweeps; a capped step is
-//! reported unconverged. Sequential sweeps in key order, or (`CdParams::coloured_sweeps`)
-//! colour class by colour class on the thread pool ([`crate::cd::colour`]): the result does
-//! not depend on the thread count either way.
+//! reported unconverged. Sequential sweeps in key order: the result does not depend on
+//! threads. (`CdParams::coloured_sweeps` picks the colour-class sweep of `cd::colour`
+//! instead, which shares this file's per-contact update.)
 
 use crate::cd::body::Body;
 use crate::cd::contacts::Row;
@@ -145,9 +145,6 @@ pub struct Settings {
     pub max_iterations: u32,
     /// Under-relaxation ω.
     pub relaxation: Real,
-    /// Sweep the contacts by colour classes, each class shared out on the thread pool
-    /// ([`crate::cd::colour`]); else in key order on this thread.
-    pub coloured: bool,
 }
 
 /// Natural-map residual ‖P − proj_K(P − ρ q̂)‖₂ / ‖(P, ρq)‖₂ of the current state (no
@@ -212,17 +209,32 @@ pub fn gauss_seidel(
     s: &Settings,
     roll: Option<(&mut [Real], &[Real], Real)>,
 ) -> SolveInfo {
+    solve(rows, bodies, s, roll, sweeps::<false>, sweeps::<true>)
+}
+
+/// A sweep loop (rows, bodies, settings, rolling moments, rolling radii, μ_r): the key
+/// order of this file or the colour classes of `cd::colour`.
+pub(crate) type Sweeps = fn(&mut [Row], &mut [Body], &Settings, &mut [Real], &[Real], Real) -> SolveInfo;
+
+/// The `gauss_seidel` phase with the sweep loops `plain` (no rolling resistance) and
+/// `rolling`: nothing to do without contacts.
+pub(crate) fn solve(
+    rows: &mut [Row],
+    bodies: &mut [Body],
+    s: &Settings,
+    roll: Option<(&mut [Real], &[Real], Real)>,
+    plain: Sweeps,
+    rolling: Sweeps,
+) -> SolveInfo {
     if rows.is_empty() {
         return SolveInfo {
             converged: true,
             ..SolveInfo::default()
         };
     }
-    match (roll, s.coloured) {
-        (None, false) => sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
-        (Some((mr, re, mu_r)), false) => sweeps::<true>(rows, bodies, s, mr, re, mu_r),
-        (None, true) => crate::cd::colour::sweeps::<false>(rows, bodies, s, &mut [], &[], 0.0),
-        (Some((mr, re, mu_r)), true) => crate::cd::colour::sweeps::<true>(rows, bodies, s, mr, re, mu_r),
+    match roll {
+        None => plain(rows, bodies, s, &mut [], &[], 0.0),
+        Some((mr, re, mu_r)) => rolling(rows, bodies, s, mr, re, mu_r),
     }
 }
 

@@ -480,11 +480,14 @@ impl World {
             residual_tolerance: p.residual_tolerance,
             max_iterations: p.max_iterations,
             relaxation: p.relaxation,
-            coloured: p.coloured_sweeps,
         };
         let c = &mut self.contacts;
         let roll = (p.rolling_friction > 0.0).then_some((c.mr.as_mut_slice(), c.r_eff.as_slice(), p.rolling_friction));
-        gauss_seidel(&mut c.rows, &mut self.bodies, &s, roll)
+        if p.coloured_sweeps {
+            crate::cd::colour::gauss_seidel(&mut c.rows, &mut self.bodies, &s, roll)
+        } else {
+            gauss_seidel(&mut c.rows, &mut self.bodies, &s, roll)
+        }
     }
 
     /// Contact work split (collisional / frictional), reactions, θ-term, external work.

@@ -85,6 +85,14 @@ fn machine_line(cores: usize) -> serde_json::Value {
 
 pub(super) fn bench(engine: BenchEngine, steps: Option<u64>, o: &BenchOpts) -> i32 {
     let all = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    if matches!(engine, BenchEngine::CdDense) && parse_dense_size(&o.dense_size).is_none() {
+        // refused before anything is printed
+        eprintln!(
+            "error: bench cd-dense: --dense-size {:?}: expected COLSxROWS with COLS >= 2, ROWS >= 1 (e.g. 40x25)",
+            o.dense_size
+        );
+        return 2;
+    }
     println!("{}", machine_line(all));
     let threads: Vec<usize> = if !o.threads.is_empty() {
         o.threads.iter().map(|&t| t.max(1)).collect()
@@ -486,17 +494,8 @@ fn bench_scaling(steps: Option<u64>, o: &BenchOpts) -> i32 {
 /// contact·iterations/s and sweeps per step.
 fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
     use crate::cd::bench::{dense_scene, deposit_width, run_scene};
-    let Some((ncol, nrow)) = o
-        .dense_size
-        .split_once('x')
-        .and_then(|(c, r)| Some((c.parse::<usize>().ok()?, r.parse::<usize>().ok()?)))
-        .filter(|&(c, r)| c >= 2 && r >= 1)
-    else {
-        eprintln!(
-            "error: bench cd-dense: --dense-size {:?}: expected COLSxROWS with COLS >= 2, ROWS >= 1 (e.g. 40x25)",
-            o.dense_size
-        );
-        return 2;
+    let Some((ncol, nrow)) = parse_dense_size(&o.dense_size) else {
+        return 2; // refused in `bench` before the machine line
     };
     let settle_s = 6.0;
     for (case, kick) in [("rest", 0.0), ("kick13mgd", 13.0)] {
@@ -541,6 +540,13 @@ fn bench_cd_dense(steps: u64, threads: &[usize], o: &BenchOpts) -> i32 {
         }
     }
     0
+}
+
+/// `--dense-size COLSxROWS` (COLS ≥ 2, ROWS ≥ 1).
+fn parse_dense_size(s: &str) -> Option<(usize, usize)> {
+    s.split_once('x')
+        .and_then(|(c, r)| Some((c.parse::<usize>().ok()?, r.parse::<usize>().ok()?)))
+        .filter(|&(c, r)| c >= 2 && r >= 1)
 }
 
 /// The JSON line of one CD measurement (`bench cd`, `bench cd-dense`).
