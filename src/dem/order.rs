@@ -9,9 +9,9 @@
 
 use crate::math::Real;
 
-/// Below this many grains a world is not sorted: its step's data (≈ 0.4 kB per grain)
-/// fit in the 2nd-level caches, so memory order costs little (`bench scaling`,
-/// docs/performance.md).
+/// Below this many grains a world is not sorted: its step's data (≈ 0.4 kB per grain,
+/// 1.6 MB at 4,096) sit in the last-level cache, so memory order costs little (`bench
+/// scaling`: no gain measured at 3,000 grains; docs/performance.md).
 pub const SORT_MIN_GRAINS: usize = 4096;
 
 /// Most bits per axis of the bin grid (2^16 bins a side; wider scenes get wider bins).
