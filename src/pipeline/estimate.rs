@@ -6,6 +6,11 @@
 //! which a fresh clone has) — counts with that record's wall × threads, and is done: it is
 //! not in what is still to run.
 //!
+//! **Else, as run before**: a stage the committed results hold under an older key (its
+//! inputs, parameters or code changed since: `status` calls it stale) is estimated by that
+//! run's own record at this profile — the best measure of what re-running it costs, unless
+//! the change was to its cost (a step, a grid): read such a row with the change in mind.
+//!
 //! **Else estimated**: for every other stage, the quick run's record (the cache entry of its current quick
 //! key, else `reports/quick/<id>.record.json`) gives wall time × threads. That is scaled
 //! by the ratio of the solver's work between the two profiles, computed from each
@@ -55,6 +60,9 @@ pub struct Row {
     /// This profile's own run of the current key (cache or committed results): wall [s]
     /// and threads. When present the stage is done and its cost is this, not an estimate.
     pub own: Option<Measured>,
+    /// Not run under its current key, but kept in the committed results under an older
+    /// one: that run's wall [s] and threads, its estimate.
+    pub earlier: Option<Measured>,
     /// For a stage with neither record: the mean run of its family's members that ran at
     /// this profile (an ensemble's or sweep's siblings), used as its estimate.
     pub peers: Option<Measured>,
@@ -68,13 +76,14 @@ impl Row {
     /// Wall [s]: as run at this profile, else estimated at the quick run's thread count.
     pub fn wall_s(&self) -> Option<f64> {
         self.own
+            .or(self.earlier)
             .map(|m| m.wall_s)
             .or(self.quick.map(|m| m.wall_s * self.scale))
             .or(self.peers.map(|m| m.wall_s))
     }
     /// CPU-hours (wall × threads): as run at this profile, else estimated.
     pub fn cpu_h(&self) -> Option<f64> {
-        match (self.own, self.quick, self.peers) {
+        match (self.own.or(self.earlier), self.quick, self.peers) {
             (Some(m), _, _) | (None, None, Some(m)) => Some(m.wall_s * m.threads as f64 / 3600.0),
             (None, Some(m), _) => Some(m.wall_s * self.scale * m.threads as f64 / 3600.0),
             (None, None, None) => None,
@@ -101,6 +110,8 @@ struct Family {
     to_run_cpu_h: f64,
     /// A stage with no record at either profile.
     unknown: bool,
+    /// Stages to run estimated by their earlier run at this profile.
+    earlier: usize,
 }
 
 /// The estimate of a profile.
@@ -130,16 +141,27 @@ impl Estimate {
             .collect();
         (0.0 + done.iter().sum::<f64>(), done.len())
     }
-    /// Estimated CPU-hours still to run, over how many stages (those with a quick record).
+    /// Estimated CPU-hours still to run, over how many stages (those with a record).
     pub fn to_run_cpu_h(&self) -> (f64, usize) {
         let left: Vec<f64> = self.rows.iter().filter_map(Row::to_run_cpu_h).collect();
         (0.0 + left.iter().sum::<f64>(), left.len())
+    }
+    /// Of what is still to run: CPU-hours estimated by this profile's own earlier runs
+    /// (older keys), and over how many stages.
+    pub fn earlier_cpu_h(&self) -> (f64, usize) {
+        let e: Vec<f64> = self
+            .rows
+            .iter()
+            .filter(|r| r.own.is_none() && r.earlier.is_some())
+            .filter_map(Row::cpu_h)
+            .collect();
+        (0.0 + e.iter().sum::<f64>(), e.len())
     }
     /// Threads of a worker (the quick runs' thread count).
     pub fn threads(&self) -> usize {
         self.rows
             .iter()
-            .filter_map(|r| r.own.or(r.quick).map(|m| m.threads))
+            .filter_map(|r| r.own.or(r.earlier).or(r.quick).map(|m| m.threads))
             .max()
             .unwrap_or(1)
     }
@@ -152,7 +174,7 @@ impl Estimate {
     pub fn unmeasured(&self) -> Vec<&str> {
         self.rows
             .iter()
-            .filter(|r| r.own.is_none() && r.quick.is_none() && r.peers.is_none())
+            .filter(|r| r.own.is_none() && r.earlier.is_none() && r.quick.is_none() && r.peers.is_none())
             .map(|r| r.id.as_str())
             .collect()
     }
@@ -161,7 +183,7 @@ impl Estimate {
         let r = self.rows.iter().find(|r| r.id == id)?;
         Some(Measured {
             wall_s: r.wall_s()?,
-            threads: r.own.or(r.quick).or(r.peers)?.threads,
+            threads: r.own.or(r.earlier).or(r.quick).or(r.peers)?.threads,
         })
     }
     /// Families, in plan order.
@@ -188,7 +210,8 @@ impl Estimate {
             f.done += usize::from(r.own.is_some());
             f.done_cpu_h += done;
             f.to_run_cpu_h += r.to_run_cpu_h().unwrap_or(0.0);
-            f.unknown |= r.own.is_none() && r.quick.is_none() && r.peers.is_none();
+            f.unknown |= r.own.is_none() && r.earlier.is_none() && r.quick.is_none() && r.peers.is_none();
+            f.earlier += usize::from(r.own.is_none() && r.earlier.is_some());
         }
         out
     }
@@ -196,16 +219,17 @@ impl Estimate {
     pub fn to_json(&self) -> Value {
         json!({
             "profile": self.profile,
-            "method": "a stage that ran at this profile (cache or committed results): its own record (wall × threads); else quick-profile run records (wall × threads) × the ratio of solver work (DEM/CD grains × steps, MPM points × steps) from each profile's resolved parameters; else its family's mean at this profile; see src/pipeline/estimate.rs",
+            "method": "a stage that ran at this profile (cache or committed results): its own record (wall × threads); else the committed results' run of it under an older key; else quick-profile run records (wall × threads) × the ratio of solver work (DEM/CD grains × steps, MPM points × steps) from each profile's resolved parameters; else its family's mean at this profile; see src/pipeline/estimate.rs",
             "stages": self.rows.iter().map(|r| json!({
                 "id": r.id, "family": r.family, "kind": r.kind,
                 "quick_wall_s": r.quick.map(|m| m.wall_s), "threads": r.own.or(r.quick).map(|m| m.threads),
                 "scale": r.scale, "basis": r.basis, "wall_s": r.wall_s(), "cpu_h": r.cpu_h(),
-                "ran_at_profile": r.own.is_some(),
+                "ran_at_profile": r.own.is_some(), "earlier_run_wall_s": r.earlier.map(|m| m.wall_s),
             })).collect::<Vec<_>>(),
             "total_cpu_h": self.total_cpu_h(),
             "done_cpu_h": self.done_cpu_h().0, "done_stages": self.done_cpu_h().1,
             "to_run_cpu_h": self.to_run_cpu_h().0, "to_run_stages": self.to_run_cpu_h().1,
+            "to_run_from_earlier_runs_cpu_h": self.earlier_cpu_h().0,
             "critical_path_h": self.critical.0 / 3600.0, "critical_path_ends_at": self.critical.1,
             "worker_threads": self.threads(), "workers_for_12h": self.workers_for_night(),
             "unmeasured": self.unmeasured(),
@@ -215,8 +239,9 @@ impl Estimate {
     pub fn to_text(&self) -> String {
         let mut s = format!(
             "CPU-hours of the {} profile. \"ran\": stages whose current key has run at this profile\n\
-             (cache or committed results), counted as run (wall × threads). \"to run\": the others,\n\
-             estimated from the quick profile's measured runs scaled by each solver's work — DEM/CD\n\
+             (cache or committed results), counted as run (wall × threads). \"to run\": the others, at\n\
+             their own earlier run at this profile (kept under an older key), else estimated from\n\
+             the quick profile's measured runs scaled by each solver's work — DEM/CD\n\
              grains × steps, MPM points × steps — from both profiles' resolved parameters (method:\n\
              src/pipeline/estimate.rs). Not modelled: contacts per grain, solver iterations, longer\n\
              settling, parallel efficiency: an estimate is good to a factor of 2–3.\n\n",
@@ -234,14 +259,31 @@ impl Estimate {
             };
             s.push_str(&format!(
                 "{:<26} {:<22} {:>6} {:>5} {:>10.2} {:>11.3} {:>12}  {}\n",
-                f.family, f.kind, f.stages, f.done, f.done_cpu_h, f.quick_cpu_h, left, f.basis
+                f.family,
+                f.kind,
+                f.stages,
+                f.done,
+                f.done_cpu_h,
+                f.quick_cpu_h,
+                left,
+                if f.earlier > 0 {
+                    format!("{} as run here under an older key; else {}", f.earlier, f.basis)
+                } else {
+                    f.basis
+                }
             ));
         }
         let ((done_h, done_n), (left_h, left_n)) = (self.done_cpu_h(), self.to_run_cpu_h());
+        let (early_h, early_n) = self.earlier_cpu_h();
         let unknown = self.unmeasured().len();
         s.push_str(&format!(
-            "\nran at this profile: {done_n} of {} stages, {done_h:.1} CPU-hours. To run: {left_n} stages, about {left_h:.1} CPU-hours{}.\n",
+            "\nran at this profile: {done_n} of {} stages, {done_h:.1} CPU-hours. To run: {left_n} stages, about {left_h:.1} CPU-hours{}{}.\n",
             self.rows.len(),
+            if early_n > 0 {
+                format!(" ({early_n} stages, {early_h:.1} CPU-hours, as they ran here under an older key)")
+            } else {
+                String::new()
+            },
             if unknown > 0 { format!(", and {unknown} with no record at either profile (below)") } else { String::new() },
         ));
         s.push_str(&format!(
@@ -287,7 +329,10 @@ pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Esti
     let q = load(&p.path, "quick", &[]).map_err(|d| d.to_string())?;
     let qkeys = key_records(&q);
     let keys = key_records(p);
-    let committed = super::store::dir_of(&p.root, &p.profile).join(super::store::STORE);
+    let dir = super::store::dir_of(&p.root, &p.profile);
+    let committed = dir.join(super::store::STORE);
+    // an unreadable lock only loses the earlier runs' estimates (`status` reports it)
+    let lock = super::store::read_lock(&dir).ok().flatten();
     let mut rows = Vec::new();
     for id in &ids {
         let st = p.get(id).expect("closure id");
@@ -318,12 +363,21 @@ pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Esti
         let key = &keys[id.as_str()].1;
         let own = entry_record(proj, key)
             .or_else(|| super::export::measured_from_record_file(&committed.join(key).join("record.json")));
+        let earlier = lock
+            .as_ref()
+            .and_then(|l| l.stages.get(id.as_str()))
+            .filter(|l| &l.key != key)
+            .and_then(|l| {
+                super::export::measured_from_record_file(&committed.join(&l.key).join("record.json"))
+                    .or(l.wall_s.map(|wall_s| Measured { wall_s, threads: 1 }))
+            });
         rows.push(Row {
             id: id.clone(),
             family: st.base_id.clone(),
             kind: st.kind.clone(),
             quick,
             own,
+            earlier,
             peers: None,
             scale,
             basis,
@@ -337,7 +391,10 @@ pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Esti
             *e = (e.0 + m.wall_s, e.1.max(m.threads), e.2 + 1);
         }
     }
-    for r in rows.iter_mut().filter(|r| r.own.is_none() && r.quick.is_none()) {
+    for r in rows
+        .iter_mut()
+        .filter(|r| r.own.is_none() && r.earlier.is_none() && r.quick.is_none())
+    {
         if let Some(&(wall, threads, n)) = ran.get(&r.family) {
             r.peers = Some(Measured {
                 wall_s: wall / n as f64,
@@ -434,6 +491,7 @@ mod tests {
             kind: "k".into(),
             quick: quick.map(m),
             own: own.map(m),
+            earlier: None,
             peers: None,
             scale,
             basis: String::new(),
@@ -457,6 +515,20 @@ mod tests {
         assert_eq!(e.to_run_cpu_h(), (3.0, 1));
         assert_eq!(e.total_cpu_h(), 5.0);
         assert_eq!(e.unmeasured(), ["c"]);
+        // kept under an older key: to run, at that run's cost (not the quick run scaled)
+        let mut e = e;
+        e.rows[2].earlier = Some(Measured {
+            wall_s: 1800.0,
+            threads: 2,
+        });
+        assert_eq!(e.done_cpu_h(), (2.0, 1));
+        assert_eq!(e.to_run_cpu_h(), (4.0, 2));
+        assert_eq!(e.earlier_cpu_h(), (1.0, 1));
+        assert!(e.unmeasured().is_empty());
+        assert!(e.to_text().contains(
+            "To run: 2 stages, about 4.0 CPU-hours (1 stages, 1.0 CPU-hours, as they ran here under an older key)"
+        ));
+        e.rows[2].earlier = None;
         let t = e.to_text();
         assert!(t.contains("ran at this profile: 1 of 3 stages, 2.0 CPU-hours. To run: 1 stages, about 3.0 CPU-hours, and 1 with no record"), "{t}");
     }
