@@ -864,6 +864,15 @@ fn bad_input_corpus() {
         if code != Some(2) || err.contains("panicked") || !missing.is_empty() {
             failures.push(format!("[{}] exit {code:?}, missing {missing:?}:\n{err}", c.name));
         }
+        // Nothing is printed to stdout either (a benchmark's machine line, a plan's first
+        // rows): a consumer reading stdout sees no half output.
+        if !out.stdout.is_empty() {
+            failures.push(format!(
+                "[{}] printed to stdout although the input was rejected:\n{}",
+                c.name,
+                String::from_utf8_lossy(&out.stdout)
+            ));
+        }
         // Nothing is written for bad input.
         if t.path().join(".granrepro").exists()
             || t.path().join("reports").exists()
