@@ -8,8 +8,9 @@
 //!
 //! **Else, as run before**: a stage the committed results hold under an older key (its
 //! inputs, parameters or code changed since: `status` calls it stale) is estimated by that
-//! run's own record at this profile — the best measure of what re-running it costs, unless
-//! the change was to its cost (a step, a grid): read such a row with the change in mind.
+//! run's own record at this profile, scaled by the work ratio (below) of its current params
+//! over the params it ran with, which the lock records: a step or a sweep reduced since
+//! costs what is left of it.
 //!
 //! **Else estimated**: for every other stage, the quick run's record (the cache entry of its current quick
 //! key, else `reports/quick/<id>.record.json`) gives wall time × threads. That is scaled
@@ -341,35 +342,34 @@ pub fn estimate(p: &Pipeline, proj: &Project, targets: &[String]) -> Result<Esti
             .and_then(|qs| entry_record(proj, &qkeys[&qs.id].1))
             .or_else(|| super::export::measured_from_record(&proj.report_dir("quick"), id));
         let (scale, basis) = match (q.get(id).and_then(|qs| work(&q, qs)), work(p, st)) {
-            (Some((wq, max_of)), Some((wp, _))) if wq.len() == wp.len() && wq.iter().all(|(_, x)| *x > 0.0) => {
-                let ratios: Vec<f64> = wp.iter().zip(&wq).map(|((_, a), (_, b))| a / b).collect();
-                let scale = if max_of {
-                    ratios.iter().fold(0.0f64, |a, &b| a.max(b))
-                } else {
-                    ratios.iter().product()
-                };
-                let parts: Vec<String> = wp
-                    .iter()
-                    .zip(&ratios)
-                    .map(|((n, _), r)| format!("{n} ×{}", short(*r)))
-                    .collect();
-                (
-                    scale,
-                    parts.join(if max_of { " | " } else { ", " }) + if max_of { " (larger)" } else { "" },
-                )
-            }
-            _ => (1.0, "bookkeeping: as measured".to_string()),
-        };
+            (Some(wq), Some(wp)) => ratio(&wp, &wq),
+            _ => None,
+        }
+        .unwrap_or_else(|| (1.0, "bookkeeping: as measured".to_string()));
         let key = &keys[id.as_str()].1;
         let own = entry_record(proj, key)
             .or_else(|| super::export::measured_from_record_file(&committed.join(key).join("record.json")));
+        // the earlier run, scaled by the work its current params ask over the params it
+        // ran with (a step or a sweep changed since: the new cost, not the old one)
         let earlier = lock
             .as_ref()
             .and_then(|l| l.stages.get(id.as_str()))
             .filter(|l| &l.key != key)
             .and_then(|l| {
-                super::export::measured_from_record_file(&committed.join(&l.key).join("record.json"))
-                    .or(l.wall_s.map(|wall_s| Measured { wall_s, threads: 1 }))
+                let m = super::export::measured_from_record_file(&committed.join(&l.key).join("record.json"))
+                    .or(l.wall_s.map(|wall_s| Measured { wall_s, threads: 1 }))?;
+                let then = Stage {
+                    params: l.record.params.clone(),
+                    ..st.clone()
+                };
+                let r = match (work(p, st), work(p, &then)) {
+                    (Some(now), Some(was)) => ratio(&now, &was).map_or(1.0, |(r, _)| r),
+                    _ => 1.0,
+                };
+                Some(Measured {
+                    wall_s: m.wall_s * r,
+                    threads: m.threads,
+                })
             });
         rows.push(Row {
             id: id.clone(),
@@ -451,6 +451,30 @@ fn cost_ctx<'a>(p: &'a Pipeline, st: &'a Stage) -> CostCtx<'a> {
                 .collect()
         }),
     }
+}
+
+/// The work ratio `a / b` of two cost models' work (a product of per-factor ratios, or
+/// their largest for a `max_of` model), and what it is made of; None when the factors do
+/// not pair up or one is not positive.
+fn ratio((wa, max_of): &Work, (wb, _): &Work) -> Option<(f64, String)> {
+    if wa.len() != wb.len() || !wb.iter().all(|(_, x)| *x > 0.0) {
+        return None;
+    }
+    let ratios: Vec<f64> = wa.iter().zip(wb).map(|((_, a), (_, b))| a / b).collect();
+    let scale = if *max_of {
+        ratios.iter().fold(0.0f64, |a, &b| a.max(b))
+    } else {
+        ratios.iter().product()
+    };
+    let parts: Vec<String> = wa
+        .iter()
+        .zip(&ratios)
+        .map(|((n, _), r)| format!("{n} ×{}", short(*r)))
+        .collect();
+    Some((
+        scale,
+        parts.join(if *max_of { " | " } else { ", " }) + if *max_of { " (larger)" } else { "" },
+    ))
 }
 
 /// A ratio, short.
@@ -615,6 +639,68 @@ mod tests {
         let e = estimate(&p, &proj, &["psd-shear".to_string()]).unwrap();
         assert_eq!(e.rows[0].scale, 1.0);
         assert!(estimate(&p, &proj, &["nope".to_string()]).is_err());
+    }
+
+    /// A stage kept in the committed results under an older key is estimated by that run's
+    /// record, scaled by the work its current params ask over the params it ran with (here
+    /// the CD shear sweep: steps ∝ Σ_I 1/I, so leaving the slow inertial numbers out costs
+    /// what is left), and counted as to run, not as run.
+    #[test]
+    fn a_stage_kept_under_an_older_key_costs_its_run_scaled_by_the_work_left() {
+        use crate::pipeline::cache::KeyRecord;
+        use crate::pipeline::store::{Lock, Locked};
+        let dir = tempfile::tempdir().unwrap();
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        std::fs::copy(root.join("pipeline.yaml"), dir.path().join("pipeline.yaml")).unwrap();
+        copy_tree(&root.join("stages"), &dir.path().join("stages"));
+        let p = load(&dir.path().join("pipeline.yaml"), "paper", &[]).unwrap();
+        let st = p.get("shear-cd").unwrap();
+        // it ran with one more inertial number, I = 1e-3, than the current sweep
+        let now: Vec<f64> = list(&st.params["shear"], "inertial_numbers");
+        let mut was = st.params.clone();
+        let mut ran = now.clone();
+        ran.insert(0, 1.0e-3);
+        was["shear"]["inertial_numbers"] = serde_json::json!(ran);
+        let inv = |v: &[f64]| v.iter().map(|i| 1.0 / i).sum::<f64>();
+        let want = 3600.0 * inv(&now) / inv(&ran);
+        assert!(want < 0.5 * 3600.0, "the slow point is most of the work: {want}");
+        let lock = Lock {
+            profile: "paper".into(),
+            stages: [(
+                "shear-cd".to_string(),
+                Locked {
+                    key: "0".repeat(32),
+                    record: KeyRecord {
+                        kind: st.kind.clone(),
+                        version: st.version,
+                        params: was,
+                        profile: "paper".into(),
+                        inputs: vec![],
+                    },
+                    store: Default::default(),
+                    published: Default::default(),
+                    left_out: Default::default(),
+                    sources: Default::default(),
+                    closure: None,
+                    wall_s: Some(3600.0),
+                },
+            )]
+            .into(),
+            closures: Default::default(),
+        };
+        let res = dir.path().join("results").join("paper");
+        std::fs::create_dir_all(&res).unwrap();
+        std::fs::write(res.join("lock.json"), serde_json::to_vec(&lock).unwrap()).unwrap();
+        let e = estimate(&p, &Project::new(dir.path()), &["shear-cd".to_string()]).unwrap();
+        let row = e.rows.iter().find(|r| r.id == "shear-cd").unwrap();
+        assert!(row.own.is_none());
+        let got = row.earlier.unwrap().wall_s;
+        assert!((got - want).abs() < 1e-9 * want, "{got} vs {want}");
+        assert_eq!(
+            e.to_run_cpu_h().1,
+            e.rows.len() - e.done_cpu_h().1 - e.unmeasured().len()
+        );
+        assert!((e.earlier_cpu_h().0 - want / 3600.0).abs() < 1e-9);
     }
 
     /// The pile runs scale by grains (the prep's `grains`, else its PSD's) × steps: the quick
