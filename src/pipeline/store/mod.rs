@@ -337,10 +337,22 @@ pub(super) fn judged_without(
             .filter(|s| not_fresh.contains(*s))
             .collect();
         if let Some(first) = stale.first() {
+            // what the row said on the results as kept, in the note only: never in the
+            // value or verdict columns, which read as current
+            let was = (!r.values.is_empty())
+                .then(|| {
+                    format!(
+                        " As last run: {}, {}.",
+                        crate::report::ledger::ours_text(r),
+                        r.verdict.name()
+                    )
+                })
+                .unwrap_or_default();
             r.values.clear();
             r.verdict = crate::claims::judge::Verdict::NotRun;
             r.note = format!(
-                "the committed result of `{first}` is not current: built from code or inputs changed since (`granrepro status --profile paper` says which); it is judged again when re-run"
+                "not current: `{first}` was built from code or inputs changed since (`granrepro status --profile {}` says which); judged again when re-run.{was}",
+                p.profile
             );
         }
     }
@@ -591,6 +603,41 @@ pub use keep::{Kept, keep, keep_dir};
 #[cfg(test)]
 mod tests {
     use super::Caps;
+
+    /// A row that reads a result not current is not run, with no value in its columns;
+    /// what it said on the results as kept is in its note, marked as the last run (the
+    /// report showed a table of "—" before, with no number a reader could weigh).
+    #[test]
+    fn a_stale_row_is_not_run_and_its_note_says_what_it_was() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let p = crate::pipeline::load(&root.join("pipeline.yaml"), "paper", &[]).unwrap();
+        let dir = super::dir_of(root, "paper");
+        let Some(as_kept) = super::judged_without(&p, &dir, &Default::default()) else {
+            return; // no committed paper results in this checkout
+        };
+        let all: std::collections::HashSet<String> = p.stages.iter().map(|s| s.id.clone()).collect();
+        let stale = super::judged_without(&p, &dir, &all).unwrap();
+        let mut seen = 0;
+        for (k, s) in as_kept.iter().zip(&stale) {
+            assert_eq!(k.id, s.id);
+            if k.row.measure.all_stages().is_empty() {
+                continue;
+            }
+            assert_eq!(s.verdict, crate::claims::judge::Verdict::NotRun, "{}", s.id);
+            assert!(s.values.is_empty(), "{}", s.id);
+            assert!(s.note.starts_with("not current"), "{}: {}", s.id, s.note);
+            if !k.values.is_empty() {
+                let was = format!(
+                    "As last run: {}, {}.",
+                    crate::report::ledger::ours_text(k),
+                    k.verdict.name()
+                );
+                assert!(s.note.ends_with(&was), "{}: {}", s.id, s.note);
+                seen += 1;
+            }
+        }
+        assert!(seen > 0, "no row had a value as kept");
+    }
 
     /// A stage's main table keeps the CSV cap, a side table (`X-NAME.csv`: a member's
     /// time series, a per-gap table) the lower side cap. Before, every published CSV had the
