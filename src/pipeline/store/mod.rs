@@ -339,15 +339,15 @@ pub(super) fn judged_without(
         if let Some(first) = stale.first() {
             // what the row said on the results as kept, in the note only: never in the
             // value or verdict columns, which read as current
-            let was = (!r.values.is_empty())
-                .then(|| {
-                    format!(
-                        " As last run: {}, {}.",
-                        crate::report::ledger::ours_text(r),
-                        r.verdict.name()
-                    )
-                })
-                .unwrap_or_default();
+            let was = if r.values.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " As last run: {}, {}.",
+                    crate::report::ledger::ours_text(r),
+                    r.verdict.name()
+                )
+            };
             r.values.clear();
             r.verdict = crate::claims::judge::Verdict::NotRun;
             r.note = format!(
