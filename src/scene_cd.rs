@@ -1,5 +1,5 @@
 //! `granrepro simulate SCENE.yaml --out DIR` for a CD scene (`engine: cd`): a shear test
-//! (psd → cd-shear → cd-shear-figure) or a pile work-precision set (one work-precision
+//! (psd → cd-shear → the fig4-25 `plot`) or a pile work-precision set (one work-precision
 //! stage), written as a small pipeline under DIR and run there like the DEM and MPM scenes
 //! (same tables, figures, claims and exit codes).
 
@@ -40,8 +40,14 @@ pub fn is_cd_scene(path: &std::path::Path) -> bool {
         .unwrap_or(false)
 }
 
+/// The figure of a shear scene: the project's declaration of figure 4.25(b), built in (a
+/// scene runs outside the repository).
+fn shear_figure() -> serde_yaml::Value {
+    serde_yaml::from_str(include_str!("../stages/pile/fig4-25.yaml")).expect("stages/pile/fig4-25.yaml is valid YAML")
+}
+
 /// `granrepro simulate` for a CD scene: written as a small pipeline under `out` (psd →
-/// cd-shear → cd-shear-figure, or one work-precision stage, method cd) and run there, so the
+/// cd-shear → the fig4-25 `plot`, or one work-precision stage, method cd) and run there, so the
 /// outputs are the stages' tables, figures and claims. Exit code 0 ok, 1 failed, 2 bad input.
 pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) -> i32 {
     let nonnull = |v: &serde_yaml::Value| {
@@ -86,12 +92,7 @@ pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) 
                     serde_yaml::Value::Mapping(sh),
                     Some(("psd", "psd")),
                 ),
-                mk(
-                    "figure",
-                    "cd-shear-figure",
-                    serde_yaml::Value::Mapping(Default::default()),
-                    Some(("shear", "shear")),
-                ),
+                mk("figure", "plot", shear_figure(), Some(("shear", "shear"))),
             ]
         }
         "pile" => {
@@ -127,4 +128,19 @@ pub fn simulate_cd(scene: &std::path::Path, out: &std::path::Path, quiet: bool) 
     doc.insert("stages".into(), serde_yaml::Value::Sequence(stages));
     // validated before anything is written; `out` must be new, empty or our own output
     crate::scene::run_generated(scene, &text, &serde_yaml::Value::Mapping(doc), out, quiet)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::stages::Validate;
+
+    /// The built-in figure of a shear scene is the project's fig4-25 declaration, valid as a
+    /// `plot` and reading only the role the scene gives it.
+    #[test]
+    fn the_shear_figure_is_a_valid_plot_of_the_shear_role() {
+        let v = serde_json::to_value(super::shear_figure()).unwrap();
+        let p: crate::stages::generic::plot::PlotParams = serde_json::from_value(v).unwrap();
+        assert!(p.validate().is_empty(), "{:?}", p.validate());
+        assert_eq!(p.roles(), vec!["shear"]);
+    }
 }

@@ -149,3 +149,32 @@ fn bad_plot_and_compare_params_are_refused() {
         "a rejected stage's inputs are not handed to another stage: {err}"
     );
 }
+
+/// A panel's straight lines: a level read from an input's scalar and a stated number,
+/// drawn with the values in the legend; a line naming a scalar the input's kind does not
+/// publish is refused at load, naming the key.
+#[test]
+fn plot_lines_read_declared_scalars() {
+    let with_lines = |intercept: &str| {
+        PIPE.replace(
+            "label: \"coarse\", filter: { n: 400 } }",
+            &format!(
+                "label: \"coarse\", filter: {{ n: 400 }} }}\n          lines:\n            - {{ from: c, intercept: {intercept}, slope: 1.0e-6, label: \"coarse line\" }}\n            - {{ intercept: 1.5, label: \"stated d50\" }}"
+            ),
+        )
+    };
+    let t = TempProject::new(&with_lines("d50_m"));
+    let (code, out, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    let svg = std::fs::read_to_string(t.path().join("reports/quick/fig.svg")).unwrap();
+    assert!(svg.contains("stated d50 = 1.500"), "the level and its value in the legend");
+    assert!(svg.contains("coarse line: 0.002"), "the fitted line's coefficients in the legend");
+    // lines are overlays, not data: the panel still counts its three points
+    assert_eq!(json(&t, "fig")["scalars"]["panel1_points"].as_f64(), Some(3.0));
+
+    let t = TempProject::new(&with_lines("d50_mm"));
+    let (code, _, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("panels[1].lines[0].intercept") && err.contains("d50_mm"), "{err}");
+    assert!(!t.path().join("reports/quick/fine-n200.json").exists(), "refused before anything ran");
+}

@@ -66,6 +66,37 @@ fn cd_simulate_refuses_a_non_empty_directory_it_did_not_make() {
     assert!(!t.path().join(".granrepro").exists());
 }
 
+/// A CD shear scene runs psd → cd-shear → its figure, the project's fig4-25 declaration
+/// built in: μ* against I with the fitted line and the chapter's 0.22 in the legend.
+#[test]
+fn cd_shear_simulate_draws_the_declared_figure() {
+    let t = TempProject::new(SMALL);
+    t.write(
+        "cd.yaml",
+        "engine: cd\nscene: shear\npsd: { n: 60 }\ngrains: 60\nshear: { inertial_numbers: [0.01, 0.1], strain: 0.3 }\n",
+    );
+    let out = t.path().join("sim");
+    let (code, _, err) = t.cli(&[
+        "simulate",
+        t.path().join("cd.yaml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let svg = read(out.join("reports/quick/figure.svg"));
+    assert!(
+        svg.contains("stated (§4.4.1): μ* = 0.220") && svg.contains("fit μ = μ_min + b I"),
+        "{svg:.300}"
+    );
+    let fig: serde_json::Value = serde_json::from_str(&read(out.join("reports/quick/figure.json"))).unwrap();
+    assert_eq!(
+        fig["scalars"]["panel0_points"].as_f64(),
+        Some(2.0),
+        "one point per inertial number"
+    );
+}
+
 /// Finding 3: `clean --reports --pipeline missing.yaml` deleted a reports/ folder.
 #[test]
 fn clean_with_a_missing_pipeline_removes_nothing() {

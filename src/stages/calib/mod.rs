@@ -1,10 +1,9 @@
 //! Calibration of the DEM and CD grains (`stages/calib-*.yaml`, `stages/shear-dem.yaml`,
 //! `stages/compress-dem.yaml`, `stages/cd-shear.yaml`): the joint DEM calibration of μ_r,
 //! the DEM periodic shear and confined compression tests whose friction angle and modulus
-//! feed the MPM through the DAG, and the CD periodic shear test with its figure.
+//! feed the MPM through the DAG, and the CD periodic shear test (its figure, fig4-25, is a `plot`).
 
 pub mod cd_shear;
-pub mod cd_shear_figure;
 pub mod dem_calibration;
 pub mod dem_choice;
 pub mod dem_compress;
@@ -20,5 +19,4 @@ pub const KINDS: &[crate::stages::Kind] = &[
     dem_choice::CALIB_KIND,
     dem_study::STUDY_KIND,
     cd_shear::SHEAR_KIND,
-    cd_shear_figure::SHEAR_FIGURE_KIND,
 ];

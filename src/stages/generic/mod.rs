@@ -6,6 +6,7 @@ pub mod compare;
 pub mod fit_stage;
 pub mod laws;
 pub mod plot;
+pub mod plot_lines;
 pub mod psd;
 pub mod snapshot;
 pub mod tables;

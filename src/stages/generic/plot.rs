@@ -22,6 +22,9 @@ use crate::stages::kind::{Item, Read};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
+use super::plot_lines::line_series;
+pub use super::plot_lines::{Coef, LineOverlay};
+
 /// One axis.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -162,6 +165,10 @@ pub struct Panel {
     /// Stated laws (names of `reference-laws`) to overlay from the role `laws_from`.
     #[serde(default)]
     pub laws: Vec<String>,
+    /// Straight lines (a fitted line from scalars, a stated level). Left out of the
+    /// canonical params when empty (no existing plot's cache key moves).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lines: Vec<LineOverlay>,
 }
 
 /// A figure's own measured error, read from a work-precision stage through the DAG: the
@@ -214,6 +221,7 @@ impl PlotParams {
         for p in &self.panels {
             p.series.iter().for_each(|s| add(&s.from));
             p.fits.iter().for_each(|f| add(&f.from));
+            p.lines.iter().filter_map(|l| l.from.as_deref()).for_each(&mut add);
         }
         if let Some(l) = &self.laws_from {
             add(l);
@@ -250,11 +258,38 @@ impl Validate for PlotParams {
                 }
             }
             c.check(
-                !p.series.is_empty() || !p.fits.is_empty() || !p.laws.is_empty(),
+                !p.series.is_empty() || !p.fits.is_empty() || !p.laws.is_empty() || !p.lines.is_empty(),
                 &format!("panels[{i}]"),
                 "empty",
-                "at least one series, fit or law",
+                "at least one series, fit, law or line",
             );
+            for (j, l) in p.lines.iter().enumerate() {
+                let key = format!("panels[{i}].lines[{j}]");
+                c.check(
+                    l.from.is_some() || l.scalars().next().is_none(),
+                    &format!("{key}.from"),
+                    "missing",
+                    "the role whose scalars `intercept` / `slope` name (or write both as numbers)",
+                );
+                if let Some([lo, hi]) = l.x_range {
+                    c.check(
+                        lo.is_finite() && hi.is_finite() && hi > lo && (!p.x.log || lo > 0.0),
+                        &format!("{key}.x_range"),
+                        format!("[{lo}, {hi}]"),
+                        "[lo, hi] with lo < hi (lo > 0 on a log axis)",
+                    );
+                }
+                for (f, v) in [("intercept", &l.intercept), ("slope", &l.slope)] {
+                    if let Coef::Value(x) = v {
+                        c.check(
+                            x.is_finite(),
+                            &format!("{key}.{f}"),
+                            x,
+                            "a finite number or a scalar's name",
+                        );
+                    }
+                }
+            }
             for (j, s) in p.series.iter().enumerate() {
                 let key = format!("panels[{i}].series[{j}]");
                 c.check(
@@ -534,6 +569,15 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
                 ));
             }
         }
+        let first = panel.series.len() + panel.fits.len();
+        let lines = line_series(
+            ctx,
+            &panel.lines,
+            (panel.x.log, panel.x.range),
+            &series[..n_data],
+            first,
+        )?;
+        series.extend(lines);
         // Points drawn are what the figure shows: count them (a golden number that moves
         // when a filter or an upstream sweep silently changes).
         out.scalar(
@@ -655,6 +699,20 @@ pub fn reads(v: &serde_json::Value) -> Vec<Read> {
                     if let Some(g) = &s.group {
                         add("group", col(g));
                     }
+                }
+            }
+        }
+    }
+    for (i, panel) in p.panels.iter().enumerate() {
+        for (j, l) in panel.lines.iter().enumerate() {
+            let Some(role) = &l.from else { continue };
+            for (c, f) in [(&l.intercept, "intercept"), (&l.slope, "slope")] {
+                if let Coef::Scalar(s) = c {
+                    out.push(Read {
+                        role: role.clone(),
+                        key: format!("panels[{i}].lines[{j}].{f}"),
+                        item: Item::Scalar(s.clone()),
+                    });
                 }
             }
         }
