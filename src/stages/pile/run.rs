@@ -1,7 +1,8 @@
 //! Kind `pile-run` (chapter 4 §4.4, docs/definitions.md SC-PILE): one method (DEM, CD or
 //! MPM), one excitation profile, a list of input energies; the same grains (DEM deposit)
-//! seed every method. Per-run summary (D01, D10–D16) and the time series; E_k/E_0 figure
-//! (figs 4.34b/4.35 style).
+//! seed every method. Per-run summary (D01, D10–D16) and the time series (`series`: E_k/E_0,
+//! L, H against t per energy), which declared `plot` stages draw (figs 4.34b/4.35,
+//! `pile-cd-ek`); the run draws no figure of its own.
 
 use serde_json::Value;
 
@@ -13,7 +14,6 @@ use crate::dem::State;
 use crate::engines::Method;
 use crate::engines::pile::{Excited, PileEngine, PileScene};
 use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64, frame};
-use crate::report::plot::{Chart, Legend, Series, Style, footer};
 use crate::stages::kind::{CostCtx, Work};
 use crate::stages::{Kind, decode};
 
@@ -140,42 +140,6 @@ fn run_run(ctx: &StageCtx) -> anyhow::Result<Output> {
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    // E_k/E_0 against t (figs 4.34b, 4.35).
-    let series: Vec<Series> = runs
-        .iter()
-        .enumerate()
-        .map(|(k, Excited { summary: s, run: r, .. })| {
-            let pts: Vec<(f64, f64)> = r
-                .samples
-                .iter()
-                .filter(|q| q.ek > 0.0)
-                .map(|q| (q.t / tu, (q.ek / r.e0).max(1e-6)))
-                .collect();
-            Series::new(format!("E_0 = {:.3} mgd", s.e0_mgd), Style::Line, pts, k)
-        })
-        .collect();
-    let chart = Chart {
-        title: format!(
-            "{} pile, {} excitation: E_k/E_0 against t",
-            p.method.label(),
-            p.profile.name()
-        ),
-        footer: footer(
-            &ctx.profile,
-            &format!(
-                "N = {} grains of the DEM deposit; E_0 per grain in m g d (D21)",
-                pile.state.len()
-            ),
-        ),
-        x_label: "t / √(d/g)".into(),
-        y_label: "E_k / E_0".into(),
-        y_log: true,
-        y_range: Some((1e-6, 2.0)),
-        series,
-        legend: Legend::UpperRight,
-        ..Default::default()
-    };
-    out.figure("figure", chart.to_svg()?);
     out.note(format!(
         "{} pile, {} profile, {} energies; stopping rule: E_k + E_rot < {:.0e} E_0 and L within {} d over {} √(d/g), after {} √(d/g), at most {} √(d/g).",
         p.method.label(), p.profile.name(), n, p.stop.ek_ratio, p.stop.still_tol, p.stop.still_time, p.stop.t_min, p.stop.t_max
@@ -293,7 +257,9 @@ pub const RUN_KIND: Kind = Kind {
     name: "pile-run",
     source: file!(),
     method: None,
-    version: 4,
+    // 5: no figure of its own; its E_k/E_0 against t is drawn by declared plots of its
+    // `series` (fig4-34, fig4-35 through pile-series, pile-cd-ek) (issue 23)
+    version: 5,
     about: "pile under horizontal excitation (DEM, CD or MPM) over a list of input energies: run-out, duration, energies, decay (D01, D10–D16)",
     params,
     run: run_run,
