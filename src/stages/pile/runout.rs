@@ -1,13 +1,13 @@
-//! Kind `pile-runout` (fig4-33): ΔL and t_f against E_0 for every method, the two-regime
-//! fits (fitted break and the chapter's 40 mgd) with standard errors, the chapter's
-//! exponents dashed as stated laws, and the claims.
+//! Kind `pile-runout`: ΔL, L_f, t_f and v_s against E_0 for every method, the two-regime
+//! fits (fitted break and the chapter's 40 mgd) with standard errors, and the claims. It
+//! draws nothing: fig4-33 (a declared plot) draws the runs with the fit stages and the
+//! chapter's exponents.
 
 use serde::{Deserialize, Serialize};
 
 use crate::engines::Method;
 use crate::fit::{PowerFit, two_regimes};
 use crate::pipeline::context::{Claim, Output, StageCtx, col_f64};
-use crate::report::plot::{Chart, Legend, Series, Style, footer};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -97,7 +97,14 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
         let inp = group[0];
         let method: Method = serde_json::from_value(inp.params.get("method").cloned().unwrap_or_default())
             .map_err(|e| anyhow::anyhow!("input `{}` is not a pile-run: {e}", inp.id))?;
-        let mut d = MethodData { method, e: vec![], dl: vec![], lf: vec![], tf: vec![], vs: vec![] };
+        let mut d = MethodData {
+            method,
+            e: vec![],
+            dl: vec![],
+            lf: vec![],
+            tf: vec![],
+            vs: vec![],
+        };
         for inp in group {
             let df = inp.table("table")?;
             d.e.extend(col_f64(&df, "e0_mgd")?);
@@ -112,19 +119,14 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
     let split = p.split_mgd;
     let mut rows = Vec::new();
     let mut out = Output::default();
-    let mut fit_dl: Vec<(Method, Option<PowerFit>, Option<PowerFit>, Option<f64>)> = Vec::new();
-    let mut dem_tf_high: Option<PowerFit> = None;
     let mut dem_fits: std::collections::BTreeMap<&str, PowerFit> = Default::default();
     for d in &data {
         let m = d.method;
         let given = |y: &[f64]| two_regimes(&d.e, y, Some(split)).ok();
         let fitted = |y: &[f64]| two_regimes(&d.e, y, None).ok();
-        let mut lo_hi = (None, None, None);
         if let Some(t) = given(&d.dl) {
             fit_row(&mut rows, m, "dl", "below 40 mgd (alpha)", &t.low);
             fit_row(&mut rows, m, "dl", "above 40 mgd (alpha')", &t.high);
-            lo_hi.0 = Some(t.low);
-            lo_hi.1 = Some(t.high);
             if m == Method::Dem {
                 dem_fits.insert("dl_low", t.low);
                 dem_fits.insert("dl_high", t.high);
@@ -145,10 +147,8 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
                 &format!("above fitted break {:.1} mgd", t.break_x),
                 &t.high,
             );
-            lo_hi.2 = Some(t.break_x);
             out.scalar(&format!("{}_dl_break_mgd", m.label().to_lowercase()), t.break_x);
         }
-        fit_dl.push((m, lo_hi.0, lo_hi.1, lo_hi.2));
         if let Some(t) = given(&d.lf) {
             fit_row(&mut rows, m, "lf", "below 40 mgd", &t.low);
             fit_row(&mut rows, m, "lf", "above 40 mgd", &t.high);
@@ -160,9 +160,6 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
         if let Some(t) = given(&d.tf) {
             fit_row(&mut rows, m, "tf", "below 40 mgd", &t.low);
             fit_row(&mut rows, m, "tf", "above 40 mgd (beta')", &t.high);
-            if m == Method::Dem {
-                dem_tf_high = Some(t.high);
-            }
         }
         if let Some(t) = given(&d.vs) {
             fit_row(&mut rows, m, "vs", "below 40 mgd", &t.low);
@@ -189,7 +186,11 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
         }
     }
     // The fits' s.e. (scatter of single members about the law), for the ledger's judgement.
-    for (key, name) in [("lf_low", "dem_lf_low_se"), ("vs_low", "dem_vs_low_se"), ("vs_high", "dem_vs_high_se")] {
+    for (key, name) in [
+        ("lf_low", "dem_lf_low_se"),
+        ("vs_low", "dem_vs_low_se"),
+        ("vs_high", "dem_vs_high_se"),
+    ] {
         if let Some(f) = dem_fits.get(key) {
             out.scalar(name, f.exponent_se);
         }
@@ -227,145 +228,6 @@ fn run_runout(ctx: &StageCtx) -> anyhow::Result<Output> {
             polars::prelude::Column::new("points".into(), rows.iter().map(|r| r.6 as f64).collect::<Vec<_>>()),
         ])?,
     );
-    // Panel (a): ΔL against E_0.
-    let mut sa = Vec::new();
-    let mut sb = Vec::new();
-    for d in &data {
-        let m = d.method;
-        sa.push(Series::new(
-            m.label(),
-            Style::Points,
-            d.e.iter().cloned().zip(d.dl.iter().cloned()).collect(),
-            m.color(),
-        ));
-        sb.push(Series::new(
-            m.label(),
-            Style::Points,
-            d.e.iter().cloned().zip(d.tf.iter().cloned()).collect(),
-            m.color(),
-        ));
-    }
-    let line = |f: &PowerFit, x0: f64, x1: f64| -> Vec<(f64, f64)> {
-        (0..=20)
-            .map(|k| x0 * (x1 / x0).powf(k as f64 / 20.0))
-            .map(|x| (x, f.eval(x)))
-            .collect()
-    };
-    for (m, lo, hi, _) in &fit_dl {
-        if let Some(f) = lo {
-            sa.push(Series::new(
-                format!("fit {}: α = {:.3} ± {:.3}", m.label(), f.exponent, f.exponent_se),
-                Style::Dashed,
-                line(f, f.x_min, f.x_max),
-                m.color(),
-            ));
-        }
-        if let Some(f) = hi {
-            sa.push(Series::new(
-                format!("fit {}: α' = {:.3} ± {:.3}", m.label(), f.exponent, f.exponent_se),
-                Style::Dashed,
-                line(f, f.x_min, f.x_max),
-                m.color(),
-            ));
-        }
-    }
-    // The chapter's exponents as stated laws, anchored at the DEM data's geometric mean of
-    // each regime (only the exponent is stated; the prefactor is not).
-    if let Some(d) = data.iter().find(|d| d.method == Method::Dem) {
-        for (lo_side, expo, lab) in [
-            (true, 0.206, "stated law: α = 0.206 (E_0 < 40)"),
-            (false, 0.56, "stated law: α' = 0.56 (E_0 > 40)"),
-        ] {
-            let pts: Vec<(f64, f64)> =
-                d.e.iter()
-                    .cloned()
-                    .zip(d.dl.iter().cloned())
-                    .filter(|(e, y)| (*e <= split) == lo_side && *y > 0.0)
-                    .collect();
-            if pts.len() >= 2 {
-                let lx = pts.iter().map(|p| p.0.ln()).sum::<f64>() / pts.len() as f64;
-                let ly = pts.iter().map(|p| p.1.ln()).sum::<f64>() / pts.len() as f64;
-                let c = (ly - expo * lx).exp();
-                let (x0, x1) = if lo_side {
-                    (pts[0].0, split)
-                } else {
-                    (split, pts[pts.len() - 1].0)
-                };
-                sa.push(Series::new(
-                    lab,
-                    Style::Dashed,
-                    (0..=10)
-                        .map(|k| x0 * (x1 / x0).powf(k as f64 / 10.0))
-                        .map(|x| (x, c * x.powf(expo)))
-                        .collect(),
-                    7,
-                ));
-            }
-        }
-        if let Some(f) = &dem_tf_high {
-            sb.push(Series::new(
-                format!("fit DEM: β' = {:.3} ± {:.3}", f.exponent, f.exponent_se),
-                Style::Dashed,
-                line(f, f.x_min, f.x_max),
-                0,
-            ));
-        }
-        let emin = d.e.iter().cloned().fold(f64::INFINITY, f64::min);
-        let emax = d.e.iter().cloned().fold(0.0, f64::max);
-        sb.push(Series::new(
-            "stated: t_f ≃ 60 (DEM, E_0 < 40)",
-            Style::Dashed,
-            vec![(emin, 60.0), (split, 60.0)],
-            7,
-        ));
-        let pts: Vec<(f64, f64)> =
-            d.e.iter()
-                .cloned()
-                .zip(d.tf.iter().cloned())
-                .filter(|(e, y)| *e > split && *y > 0.0)
-                .collect();
-        if pts.len() >= 2 {
-            let lx = pts.iter().map(|p| p.0.ln()).sum::<f64>() / pts.len() as f64;
-            let ly = pts.iter().map(|p| p.1.ln()).sum::<f64>() / pts.len() as f64;
-            let c = (ly - 0.33 * lx).exp();
-            sb.push(Series::new(
-                "stated law: β' = 0.33 (E_0 > 40)",
-                Style::Dashed,
-                (0..=10)
-                    .map(|k| split * (emax / split).powf(k as f64 / 10.0))
-                    .map(|x| (x, c * x.powf(0.33)))
-                    .collect(),
-                6,
-            ));
-        }
-    }
-    let foot = footer(
-        &ctx.profile,
-        "fits: OLS of log ΔL on log E_0 each side of 40 mgd, ± 1 s.e.; dashed black: the chapter's exponents (prefactor anchored to our DEM points)",
-    );
-    let title = ctx
-        .caption
-        .clone()
-        .unwrap_or_else(|| "Pile run-out against input energy".into());
-    let ca = Chart::log_log(
-        format!("{title} — (a) run-out"),
-        foot.clone(),
-        "E_0 / (m g d) per grain",
-        "(L_f − L_0) / L_0",
-        sa,
-    );
-    let cb = Chart {
-        legend: Legend::UpperLeft,
-        ..Chart::log_log(
-            format!("{title} — (b) duration"),
-            foot,
-            "E_0 / (m g d) per grain",
-            "t_f / √(d/g)",
-            sb,
-        )
-    };
-    out.figure("figure", ca.to_svg()?);
-    out.figure("duration", cb.to_svg()?);
     out.note("β' = 0.33 is the text's value; it may not follow from the chapter's own plotted points (issue 11): ours is computed, not tuned toward either.".to_string());
     Ok(out)
 }
@@ -375,7 +237,9 @@ pub const RUNOUT_KIND: Kind = Kind {
     name: "pile-runout",
     source: file!(),
     method: None,
-    version: 4,
+    // 5: no figures of its own; fig4-33 (a declared plot of the runs and the fit stages)
+    // draws the run-outs and durations against E_0 with the fits and stated laws (issue 23)
+    version: 5,
     about: "pile run-out, duration and speed against E_0 for every method: every exponent at the 40 mgd split and the fitted break (I9), ± s.e., the t_f and v_s claims",
     params: typed::<RunoutParams>,
     run: run_runout,
@@ -411,7 +275,10 @@ mod tests {
     fn every_method_s_fitted_break_is_declared() {
         for m in [Method::Dem, Method::Cd, Method::Mpm] {
             let name = format!("{}_dl_break_mgd", m.label().to_lowercase());
-            assert!(super::RUNOUT_KIND.outputs.scalars.contains(&name.as_str()), "{name} not declared");
+            assert!(
+                super::RUNOUT_KIND.outputs.scalars.contains(&name.as_str()),
+                "{name} not declared"
+            );
         }
     }
 }
