@@ -144,7 +144,7 @@ pub fn matrix_key(
                     None => "its parameters are".to_string(),
                 };
                 let nor = if inputs.is_empty() {
-                    String::new()
+                    " (and it has no inputs to be swept on)".to_string()
                 } else {
                     format!(" (nor is any of its inputs swept on `{key}`: {})", inputs.join(", "))
                 };

@@ -10,6 +10,7 @@ use serde_yaml::{Mapping, Value as Yaml};
 
 use super::check;
 use super::diag::{Diagnostics, locate, locate_stage};
+use super::load_hints::{section_of, with_variants};
 use super::spec::*;
 use super::yaml::{canonical, merge, set_path, to_json, yaml_scalar_string};
 use crate::stages::registry;
@@ -266,6 +267,7 @@ pub(crate) fn load_profile(
                 prefix: prefix.clone(),
                 anchor: 1,
                 value: wrap(Yaml::Mapping(fm)),
+                section: None,
             });
             if let Some(fp) = fprof {
                 let Yaml::Mapping(pm) = fp else {
@@ -311,6 +313,7 @@ pub(crate) fn load_profile(
                             prefix: prefix.clone(),
                             anchor,
                             value: wrap(over.clone()),
+                            section: Some(format!("profiles.{profile}")),
                         });
                     }
                 }
@@ -328,6 +331,7 @@ pub(crate) fn load_profile(
                 prefix: vec![],
                 anchor,
                 value: Yaml::Mapping(p.clone()),
+                section: None,
             });
         }
         if let Some(p) = entry.profiles.get(profile) {
@@ -340,6 +344,7 @@ pub(crate) fn load_profile(
                 prefix: vec![],
                 anchor,
                 value: Yaml::Mapping(p.clone()),
+                section: Some(format!("profiles.{profile}")),
             });
         }
         // Matrix expansion. A matrix key that is not a parameter of the kind only names
@@ -510,7 +515,10 @@ pub(crate) fn load_profile(
                         } else {
                             pr.allowed.clone()
                         };
-                        let message = with_variants(&json, &pr.key, &pr.message, &pr.allowed);
+                        let mut message = with_variants(&json, &pr.key, &pr.message, &pr.allowed);
+                        if let Some(sec) = section_of(&layers, &mlayers[layers.len()..], &pr.key) {
+                            message = format!("{message} (set under `{sec}` of that file)");
+                        }
                         diags.push(&file, l, format!("stages[{mid}].params.{}", pr.key), message, help);
                     }
                     rejected.insert(mid.clone());
@@ -760,27 +768,5 @@ pub(crate) fn load_profile(
             );
             Err(diags)
         }
-    }
-}
-
-/// A choice written as a one-key mapping (`step: { cfl: … }`) that ended up with several
-/// keys — typically a profile layer naming another choice with a scalar, which merges
-/// instead of replacing — is named with the keys it holds, so the message says which
-/// layer's key to fix.
-fn with_variants(params: &serde_json::Value, key: &str, message: &str, allowed: &str) -> String {
-    if !allowed.contains("single key") {
-        return message.to_string();
-    }
-    let at = key
-        .split('.')
-        .filter(|k| !k.is_empty())
-        .try_fold(params, |v, k| v.get(k));
-    match at.and_then(|v| v.as_object()) {
-        Some(m) if m.len() > 1 => format!(
-            "{message}: it holds {} keys ({}), a choice takes exactly one",
-            m.len(),
-            m.keys().map(|k| format!("`{k}`")).collect::<Vec<_>>().join(", ")
-        ),
-        _ => message.to_string(),
     }
 }

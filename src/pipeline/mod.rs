@@ -11,6 +11,7 @@ pub mod export;
 pub mod fsio;
 pub mod keys;
 pub mod load;
+mod load_hints;
 pub mod order;
 pub mod plan;
 mod profile_matrix;

@@ -198,6 +198,8 @@ pub(super) struct Layer {
     pub(super) prefix: Vec<String>,
     pub(super) anchor: usize,
     pub(super) value: Yaml,
+    /// `profiles.P` when the layer is a profile's section (named in a problem it sets).
+    pub(super) section: Option<String>,
 }
 
 /// One layer of a stage's params, for attributing a problem: (file, its text, key
