@@ -2,11 +2,7 @@
 //! holds, the other side of a bound between two parameters, and the profile section that
 //! set a key wrong (`src/pipeline/load.rs` attributes each problem to its file and line).
 
-use std::path::PathBuf;
-
-use serde_yaml::Value as Yaml;
-
-use super::spec::Layer;
+use super::spec::{Layer, LayerRef};
 /// A choice written as a one-key mapping (`step: { cfl: … }`) that ended up with several
 /// keys — typically a profile layer naming another choice with a scalar, which merges
 /// instead of replacing — is named with the keys it holds, so the message says which
@@ -52,7 +48,7 @@ fn with_bounds(params: &serde_json::Value, key: &str, message: &str, allowed: &s
 /// A key a profile's section sets wrong is named there.
 pub(super) fn section_of(
     layers: &[Layer],
-    later: &[(PathBuf, Option<String>, Vec<String>, usize, Yaml)],
+    later: &[LayerRef],
     key: &str,
 ) -> Option<String> {
     let parts: Vec<&str> = key
