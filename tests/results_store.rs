@@ -57,6 +57,15 @@ fn kept_results_serve_an_empty_cache_and_a_changed_param_reruns_exactly_its_depe
         index.contains(&format!("<img src=\"{shown}\"")),
         "the index shows the store's figure"
     );
+    // The run record is committed once too: the store's `record.json`, which the index
+    // links and reads (wall, kind); the published twin is listed as left out.
+    for id in ["fig-a", "psd-a", "tab"] {
+        let l = &lock.stages[id];
+        let twin = format!("{id}.record.json");
+        assert!(!dir.join(&twin).exists() && l.left_out.contains_key(&twin), "{id}: {:?}", l.left_out);
+        assert!(index.contains(&format!("<a href=\"store/{}/record.json\">run record</a>", l.key)), "{id}");
+    }
+    assert!(index.contains(" · kind psd-figure v"), "the index read the record from the store");
     // The CSV twin of a table is left out of the store (Parquet is what stages read).
     let l = &lock.stages["psd-a"];
     assert!(l.store.contains_key("table.parquet") && l.left_out.contains_key("store/table.csv"));

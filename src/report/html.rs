@@ -125,6 +125,7 @@ pub fn write_index_of(
         .collect();
     placed.sort();
     let perr = profile_errors(dir, atlas);
+    let locked_keys = locked_keys(dir);
     let mut h = String::new();
     let _ = write!(
         h,
@@ -155,10 +156,7 @@ pub fn write_index_of(
         else {
             continue;
         };
-        let rec: Value = std::fs::read(dir.join(format!("{id}.record.json")))
-            .ok()
-            .and_then(|b| serde_json::from_slice(&b).ok())
-            .unwrap_or(Value::Null);
+        let (rec, rec_link) = record_of(dir, id, &locked_keys);
         let row = |c: &Value| ClaimRow {
             stage: id.clone(),
             id: c.get("id").and_then(|v| v.as_str()).unwrap_or("").to_string(),
@@ -269,7 +267,7 @@ pub fn write_index_of(
         }
         let _ = write!(
             body,
-            "<figcaption><p>{}</p><p><small>profile {} · kind {} v{} · wall {} s{} · {} · <a href=\"{i}.json\">scalars</a> · <a href=\"{i}.record.json\">run record</a></small></p>",
+            "<figcaption><p>{}</p><p><small>profile {} · kind {} v{} · wall {} s{} · {} · <a href=\"{i}.json\">scalars</a> · <a href=\"{r}\">run record</a></small></p>",
             esc(caption),
             esc(profile),
             esc(rec.get("kind").and_then(|v| v.as_str()).unwrap_or("?")),
@@ -284,7 +282,8 @@ pub fn write_index_of(
                 format!(" · {} (wp-summary)", esc(&err_note.join("; ")))
             },
             table_link(dir, id, &rec),
-            i = esc(id)
+            i = esc(id),
+            r = esc(&rec_link)
         );
         if let Some(notes) = rec.get("notes").and_then(|n| n.as_array()) {
             for n in notes {
@@ -387,6 +386,39 @@ pub fn write_index_of(
     }
     h.push_str("</body></html>\n");
     crate::pipeline::cache::write_atomic(&dir.join("index.html"), h.as_bytes())
+}
+
+/// Each stage's cache key in committed results (`lock.json` beside the index; empty in a
+/// report directory, which has none).
+fn locked_keys(dir: &Path) -> BTreeMap<String, String> {
+    let lock: Value = std::fs::read(dir.join("lock.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or(Value::Null);
+    lock.get("stages")
+        .and_then(Value::as_object)
+        .map(|st| {
+            st.iter()
+                .filter_map(|(id, l)| Some((id.clone(), l.get("key")?.as_str()?.to_string())))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Stage `id`'s run record and the index's link to it: the published `ID.record.json`, or,
+/// in committed results, the store entry's `record.json` (kept once when the two are the
+/// same bytes; `crate::pipeline::store`), found by the stage's key in the lock.
+fn record_of(dir: &Path, id: &str, keys: &BTreeMap<String, String>) -> (Value, String) {
+    let published = format!("{id}.record.json");
+    let link = match keys.get(id) {
+        Some(k) if !dir.join(&published).exists() => format!("store/{k}/record.json"),
+        _ => published,
+    };
+    let rec = std::fs::read(dir.join(&link))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or(Value::Null);
+    (rec, link)
 }
 
 /// Where a stage's main table is: its CSV when published beside the index, else (a

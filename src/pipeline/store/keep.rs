@@ -162,9 +162,11 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                 if f.ends_with(".parquet") {
                     continue; // the store holds the tables
                 }
-                if store_holds_twin(&s.id, &f, &l.store) {
-                    // the store holds the figure: committed once (listed with its hash)
-                    l.left_out.insert(f.clone(), hash_bytes(&bytes));
+                let h = hash_bytes(&bytes);
+                if store_holds_twin(&s.id, &f, &h, &l.store) {
+                    // the store holds the figure or the run record: committed once (listed
+                    // with its hash)
+                    l.left_out.insert(f.clone(), h);
                     continue;
                 }
                 // a snapshot figure over the cap: its compact form instead
@@ -172,17 +174,17 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     && !bulky(&f)
                     && let Some(compact) = compact_figure(&f, &bytes, caps.file)
                 {
-                    l.left_out.insert(f, hash_bytes(&bytes));
+                    l.left_out.insert(f, h);
                     publish_compact(st, &s.id, compact, n, &mut l, &mut out)?;
                     continue;
                 }
                 if n > csv_cap || bulky(&f) {
-                    l.left_out.insert(f.clone(), hash_bytes(&bytes));
+                    l.left_out.insert(f.clone(), h);
                     out.left_out.push((s.id.clone(), f, n));
                     continue;
                 }
                 fsio::write_new(&st.join(&f), &bytes)?;
-                l.published.insert(f, hash_bytes(&bytes));
+                l.published.insert(f, h);
                 out.bytes += n;
             }
             lock.stages.insert(s.id.clone(), l);
@@ -259,7 +261,7 @@ pub fn keep(p: &Pipeline, proj: &Project, caps: Caps, study: Option<&str>) -> an
                     l.left_out.insert(n, h);
                     continue;
                 }
-                if store_holds_twin(&s.id, &n, &l.store) {
+                if store_holds_twin(&s.id, &n, &h, &l.store) {
                     l.left_out.insert(n, h);
                     continue;
                 }
@@ -408,9 +410,15 @@ fn compact_figure(name: &str, bytes: &[u8], cap: u64) -> Option<(String, Vec<u8>
     (merged > 0 && (small.len() as u64) <= cap).then(|| (format!("{stem}.compact.svg"), small.into_bytes()))
 }
 
-/// Does the store keep the figure that `published` (a file of stage `id`) is the stamped
-/// twin of (`crate::pipeline::publish::published_name`)?
-fn store_holds_twin(id: &str, published: &str, store: &BTreeMap<String, String>) -> bool {
+/// Does the store keep what `published` (a file of stage `id`, of hash `hash`) is the twin
+/// of (`crate::pipeline::publish::published_name`)? A figure: its stamped twin (the footer
+/// differs, the index shows the store's copy). The run record `ID.record.json`: the
+/// store's `record.json` byte for byte (a record stamped with overrides differs, and is
+/// published).
+fn store_holds_twin(id: &str, published: &str, hash: &str, store: &BTreeMap<String, String>) -> bool {
+    if published == publish::published_name(id, "record.json") {
+        return store.get("record.json").is_some_and(|h| h == hash);
+    }
     published.ends_with(".svg")
         && store
             .keys()

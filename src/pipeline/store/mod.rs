@@ -3,7 +3,8 @@
 //!
 //! **Layout** (for profile `P`, `R = results/P`):
 //! - `R/index.html`, `R/claims.json`, and each kept stage's published files as plain files
-//!   (`X.json`, `X.svg`, `X-NAME.svg`, `X.record.json`, and `X.csv` for small tables only:
+//!   (`X.json`, `X.svg`, `X-NAME.svg`, `X.record.json` when it differs from the store's, and
+//!   `X.csv` for small tables only:
 //!   the main table ≤ [`Caps::csv`], a side table `X-NAME.csv` ≤ [`Caps::side_csv`]; a time
 //!   series is kept once, as the store's Parquet);
 //! - `R/store/<key>/`: the stage's cache entry as downstream stages read it — `result.json`,
@@ -20,7 +21,9 @@
 //! `granrepro run --profile P --stage X`), and published CSVs over their cap (a side
 //! table's is lower than a main table's: [`Caps::csv_of`]). A figure is
 //! committed once: the store's copy, which the index shows, and not its published twin
-//! (which differs only by its footer stamp); a figure over the figure cap is left out of the
+//! (which differs only by its footer stamp); so is a run record, whose published twin
+//! `X.record.json` is left out when it is the store's `record.json` byte for byte (the index
+//! links and reads the store's); a figure over the figure cap is left out of the
 //! store and published as its compact form `X.compact.svg` when it is a particle snapshot
 //! (`crate::report::compact`: the same markers, one path per marker size and colour). An entry
 //! that kept every JSON and Parquet file is *complete*: a stage that must run can read it.
