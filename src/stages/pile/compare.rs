@@ -1,10 +1,12 @@
 //! Kind `pile-compare`: the chapter's comparisons between pile runs (§4.4.3, §4.4.5), one
-//! mechanism — pair `pile-run` outputs and test a stated relation on them:
+//! mechanism — pair `pile-run` outputs and test a stated relation on them. It makes tables
+//! and claims; the figures that show them are `plot` declarations reading the same runs.
 //!
-//! - `profiles` (fig4-44): gradient against uniform excitation per method, ΔL and t_f
-//!   against E_0 (log–log, two panels) and the three statements of §4.4.5.
-//! - `restitution` (text claim attached to fig4-33): CD runs that differ only in ε_n = ε_t;
-//!   spread of the run-out per energy.
+//! - `profiles` (stage pile-profiles, drawn by fig4-44): gradient against uniform
+//!   excitation per method, ΔL and t_f paired per energy, and the three statements of
+//!   §4.4.5.
+//! - `restitution` (text claim attached to fig4-33, drawn by pile-cd-restitution-fig): CD
+//!   runs that differ only in ε_n = ε_t; spread of the run-out per energy.
 //! - `cavity` (fig4-42): cavity behind the mass at one instant, uniform against gradient
 //!   (the snapshot runs' `snapshot_metrics`).
 //! - `front` (fig4-43): MPM against DEM front L(t) at equal times (the runs' `series`).
@@ -16,7 +18,6 @@
 use serde::{Deserialize, Serialize};
 
 use crate::pipeline::context::{Claim, InputRef, Output, StageCtx, col_f64, frame};
-use crate::report::plot::{Chart, Legend, Series, Style, footer};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -237,28 +238,13 @@ fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
         .iter()
         .map(run_of)
         .collect::<anyhow::Result<_>>()?;
-    let (mut sa, mut sb) = (Vec::new(), Vec::new());
     let mut rows: Vec<(String, f64, f64, f64, f64, f64)> = Vec::new();
-    for (ci, g) in grad.iter().enumerate() {
+    for g in &grad {
         let u = unif
             .iter()
             .find(|u| u.method == g.method)
             .ok_or_else(|| anyhow::anyhow!("no uniform run of method {} among the `uniform` inputs", g.method))?;
         let m = g.method.to_lowercase();
-        for (run, lab, style) in [(g, "gradient", Style::Points), (u, "uniform", Style::Line)] {
-            sa.push(Series::new(
-                format!("{} {lab}", g.method),
-                style,
-                run.e.iter().cloned().zip(run.dl.iter().cloned()).collect(),
-                ci,
-            ));
-            sb.push(Series::new(
-                format!("{} {lab}", g.method),
-                style,
-                run.e.iter().cloned().zip(run.tf.iter().cloned()).collect(),
-                ci,
-            ));
-        }
         let dl = paired(&g.e, &g.dl, &u.e, &u.dl);
         let tf = paired(&g.e, &g.tf, &u.e, &u.tf);
         anyhow::ensure!(
@@ -307,36 +293,6 @@ fn run_profiles(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyhow::
             polars::prelude::Column::new("tf_uniform".into(), rows.iter().map(|r| r.5).collect::<Vec<_>>()),
         ])?,
     );
-    let title = ctx
-        .caption
-        .clone()
-        .unwrap_or_else(|| "Gradient against uniform excitation".into());
-    let foot = footer(
-        &ctx.profile,
-        "points: gradient v_x = k(y_max − y); lines: uniform V_0; both scaled so Σ½mv_x² = E_0 (D19)",
-    );
-    let ca = Chart {
-        legend: Legend::UpperLeft,
-        ..Chart::log_log(
-            format!("{title} — (a) run-out"),
-            foot.clone(),
-            "E_0 / (m g d) per grain",
-            "(L_f − L_0) / L_0",
-            sa,
-        )
-    };
-    let cb = Chart {
-        legend: Legend::UpperLeft,
-        ..Chart::log_log(
-            format!("{title} — (b) duration"),
-            foot,
-            "E_0 / (m g d) per grain",
-            "t_f / √(d/g)",
-            sb,
-        )
-    };
-    out.figure("figure", ca.to_svg()?);
-    out.figure("duration", cb.to_svg()?);
     Ok(())
 }
 
@@ -450,15 +406,6 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
     );
     let groups = ensembles(&runs[0].1.e, p.ensemble_rel);
     let (mut ce, mut cs, mut cm, mut cw, mut cn) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut series = Vec::new();
-    for (k, (eps, r)) in runs.iter().enumerate() {
-        series.push(Series::new(
-            format!("CD ε_n = ε_t = {eps}"),
-            Style::Points,
-            r.e.iter().cloned().zip(r.dl.iter().cloned()).collect(),
-            k,
-        ));
-    }
     for (lo, hi) in &groups {
         let inside = |e: f64| e >= lo * (1.0 - 1e-9) && e <= hi * (1.0 + 1e-9);
         let mut means = Vec::new();
@@ -527,19 +474,6 @@ fn run_restitution(ctx: &StageCtx, p: &CompareParams, out: &mut Output) -> anyho
         p.spread_tolerance,
         worst,
     ));
-    let chart = Chart::log_log(
-        ctx.caption
-            .clone()
-            .unwrap_or_else(|| "CD run-out against E_0 for several restitution coefficients".into()),
-        footer(
-            &ctx.profile,
-            &format!("largest spread of ΔL over ε: {:.1} %", 100.0 * worst),
-        ),
-        "E_0 / (m g d) per grain",
-        "(L_f − L_0) / L_0",
-        series,
-    );
-    out.figure("figure", chart.to_svg()?);
     Ok(())
 }
 
@@ -670,8 +604,8 @@ pub const KIND: Kind = Kind {
     name: "pile-compare",
     source: file!(),
     method: None,
-    version: 4,
-    about: "pile comparisons of §4.4: gradient vs uniform (fig4-44), CD restitution sweep, cavity uniform vs gradient (fig4-42), MPM vs DEM front (fig4-43), spread of perturbed-energy ensembles",
+    version: 5,
+    about: "pile comparisons of §4.4 (tables and claims; plots draw them): gradient vs uniform (fig4-44), CD restitution sweep, cavity uniform vs gradient (fig4-42), MPM vs DEM front (fig4-43), spread of perturbed-energy ensembles",
     params: typed::<CompareParams>,
     run,
     explain: None,
