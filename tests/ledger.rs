@@ -149,11 +149,24 @@ fn the_duplicates_of_the_old_report_are_judged_once() {
         !judged.iter().any(|(s, _)| s == "col-dem-no-rolling-damper"),
         "the c_r = 0 variant re-counts the a = 0.4 claims"
     );
-    assert!(
-        !judged
-            .iter()
-            .any(|(s, _)| s.starts_with("col-dem-hex-") || s.starts_with("col-mpm-mui-a"))
-    );
+    // hexagonal and μ(I) columns: no per-run claim; they enter only as a side of a
+    // comparison the chapter makes (hexagonal against random packing)
+    for r in l.claims.iter().filter(|r| r.measure.over.is_none() && r.measure.minus.is_none()) {
+        let s = &r.measure.stage;
+        assert!(
+            !(s.starts_with("col-dem-hex-") || s.starts_with("col-mpm-mui-a")),
+            "{} judges a per-run measurement of {s}",
+            r.id
+        );
+    }
+    for r in l.claims.iter().filter(|r| r.measure.stage.starts_with("col-dem-hex-")) {
+        let over = r.measure.over.as_deref().map(|o| o.stage.as_str());
+        assert!(
+            over.is_some_and(|o| o.starts_with("col-dem-a")),
+            "{}: a hexagonal column is judged against the random one",
+            r.id
+        );
+    }
 }
 
 /// The method a stage simulates, from its kind (or its `method:`), when it is a run.
@@ -421,4 +434,47 @@ fn the_calibration_and_the_settings_study_measure_the_runout_the_sweeps_report()
             "the grid points and wp-dem-column are in the profile ({seen})"
         );
     }
+}
+
+/// A chaotic row compares the grains' ensemble with an MPM run: the MPM side is one
+/// deterministic computation, so the verdict rests on the DEM members' spread. Before, the
+/// MPM side's single run made every such row "not resolved" whatever the members said
+/// (col-mpm-critical-time-tall at paper size: 0.96 τ_c over the DEM's 0.93, 0.97, 0.82).
+#[test]
+fn an_mpm_side_of_a_chaotic_comparison_is_one_run_and_the_dem_members_decide() {
+    let p = pipeline("paper");
+    let l = ledger();
+    let value = |id: &str| -> Option<(f64, &str)> {
+        Some(match id {
+            "col-mpm-a6" => (0.96, "mpm"),
+            "col-dem-a6" => (0.93, "dem"),
+            "col-dem-m1-a6" => (0.97, "dem"),
+            "col-dem-m2-a6" => (0.82, "dem"),
+            _ => return None,
+        })
+    };
+    let fake = |id: &str| -> Option<serde_json::Value> {
+        let (v, method) = value(id)?;
+        Some(serde_json::json!({
+            "scalars": { "t_kemax_over_tau_c": v },
+            "measurements": [],
+            "measured": { "methods": [{ "method": method }] },
+        }))
+    };
+    let anc = ancestors(&claims::graph(&p));
+    let j = judge(&l, &fake, &anc);
+    let row = j.iter().find(|x| x.id == "col-mpm-critical-time-tall").unwrap();
+    assert!(row.row.chaotic);
+    let se = row.se.expect("the DEM members give the ratio its s.e.");
+    // q = 0.96 / mean(0.93, 0.97, 0.82); s.e. from the members' s.d. / √3 alone
+    let (m, sd) = (0.9066666666666666_f64, 0.07767453465154029_f64);
+    assert!((row.mean - 0.96 / m).abs() < 1e-12, "{}", row.mean);
+    assert!((se - row.mean * sd / 3f64.sqrt() / m).abs() < 1e-9, "{se}");
+    // 1.06 against the chapter's 1.5 ± 0.225, 2 s.e. = 0.10: a miss, not "not resolved"
+    assert_eq!(row.verdict, Verdict::Missed, "{}", row.note);
+    // A DEM side with one member stays unknown: its chaos is not measured.
+    let one = |id: &str| if id.contains("-m1-") || id.contains("-m2-") { None } else { fake(id) };
+    let j1 = judge(&l, &one, &anc);
+    let row1 = j1.iter().find(|x| x.id == "col-mpm-critical-time-tall").unwrap();
+    assert_eq!(row1.verdict, Verdict::NotResolved, "{}", row1.note);
 }

@@ -226,11 +226,25 @@ pub fn ancestors(inputs: &BTreeMap<String, Vec<String>>) -> BTreeMap<String, BTr
 }
 
 /// One side of a measurement as read: member values, the fit s.e., whether a stage that
-/// ran lacked the measurement, and the tuned stages upstream.
+/// ran lacked the measurement, and whether every stage read is an MPM computation.
 struct Side {
     values: Vec<(String, f64)>,
     fit_se: Option<f64>,
     missing: bool,
+    /// Every stage read publishes MPM as its only method (`measured.methods`): a
+    /// continuum computation, not a DEM or CD flow, so one run is its value even on a
+    /// chaotic row (the ledger's `chaotic` is about the grains' side of a comparison).
+    continuum: bool,
+}
+
+/// Does the published result `res` come from MPM runs only?
+fn mpm_only(res: &Value) -> bool {
+    let methods: Vec<&str> = res
+        .pointer("/measured/methods")
+        .and_then(Value::as_array)
+        .map(|a| a.iter().filter_map(|m| m.get("method").and_then(Value::as_str)).collect())
+        .unwrap_or_default();
+    !methods.is_empty() && methods.iter().all(|m| *m == "mpm")
 }
 
 impl Side {
@@ -239,9 +253,11 @@ impl Side {
             values: Vec::new(),
             fit_se: None,
             missing: false,
+            continuum: true,
         };
         for id in m.stages() {
             let Some(res) = result(id) else { continue };
+            s.continuum &= mpm_only(&res);
             match read_value(&res, m.measurement.as_deref(), m.scalar.as_deref()) {
                 Some(v) => s.values.push((id.to_string(), v)),
                 None => s.missing = true,
@@ -255,8 +271,9 @@ impl Side {
         s
     }
     /// Mean, member s.d. and the s.e. that decides (None: unknown, a chaotic output with
-    /// one member).
+    /// one member; an MPM side is not chaotic: one run is its value).
     fn stats(&self, chaotic: bool) -> (f64, Option<f64>, Option<f64>) {
+        let chaotic = chaotic && !self.continuum;
         let xs: Vec<f64> = self.values.iter().map(|(_, v)| *v).collect();
         let (mean, sd) = mean_sd(&xs);
         let se = match (sd, self.fit_se) {
