@@ -64,13 +64,21 @@ pub fn parse_profile_csv(text: &str) -> ProfileErrors {
     out
 }
 
-/// "7.3 ± 9.4 %" (or "5.2 %" without a spread).
+/// "7.3 ± 9.4 %" (or "5.2 %" without a spread). A spread under 0.05 % keeps its first
+/// significant digit ("6.0 ± 0.02 %"): an ensemble whose members nearly agree is not one
+/// with no spread.
 pub fn pct(e: f64, se: f64) -> String {
     if !e.is_finite() {
         return "—".into();
     }
     if se.is_finite() {
-        format!("{:.1} ± {:.1} %", 100.0 * e, 100.0 * se)
+        let s = 100.0 * se;
+        let digits = if s > 0.0 && s < 0.05 {
+            ((-s.log10()).ceil() as usize).min(6)
+        } else {
+            1
+        };
+        format!("{:.1} ± {:.*} %", 100.0 * e, digits, s)
     } else {
         format!("{:.1} %", 100.0 * e)
     }
@@ -252,5 +260,16 @@ mod tests {
         let j = json_block("quick", &["mpm"], &errs);
         assert_eq!(j["methods"][0]["rel_error"], json!(0.052));
         assert!(j["methods"][0]["rel_error_se"].is_null());
+    }
+
+    /// The quick MPM's error, 6.0 % with a s.e. of 0.018 %, was shown "± 0.0 %", as if the
+    /// ensemble had no spread.
+    #[test]
+    fn a_small_spread_keeps_its_first_digit() {
+        assert_eq!(pct(0.0601, 1.846e-4), "6.0 ± 0.02 %");
+        assert_eq!(pct(0.073, 0.094), "7.3 ± 9.4 %");
+        assert_eq!(pct(0.052, f64::NAN), "5.2 %");
+        assert_eq!(pct(0.052, 0.0), "5.2 ± 0.0 %");
+        assert_eq!(pct(0.05, 4.0e-6), "5.0 ± 0.0004 %");
     }
 }
