@@ -178,3 +178,26 @@ fn plot_lines_read_declared_scalars() {
     assert!(err.contains("panels[1].lines[0].intercept") && err.contains("d50_mm"), "{err}");
     assert!(!t.path().join("reports/quick/fine-n200.json").exists(), "refused before anything ran");
 }
+
+/// A series may read x from another table of its input, row for row (a work-precision
+/// figure draws `table`'s errors against `timing`'s wall times): the x table and its column
+/// are checked at load like every other name, and refused before anything runs.
+#[test]
+fn plot_x_table_is_read_row_for_row_and_checked_at_load() {
+    let with_x_table = |t: &str| {
+        PIPE.replace(
+            "{ from: one, x: grain, y: d_m, y_scale: 1000.0, label: \"fine, n = 200\" }",
+            &format!("{{ from: one, x_table: {t}, x: grain, y: d_m, y_scale: 1000.0, label: \"fine, n = 200\" }}"),
+        )
+    };
+    let t = TempProject::new(&with_x_table("table"));
+    let (code, out, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    assert_eq!(json(&t, "fig")["scalars"]["panel0_points"].as_f64(), Some(200.0));
+
+    let t = TempProject::new(&with_x_table("timing"));
+    let (code, _, err) = t.cli(&["run", "--quiet"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("panels[0].series[0].x_table") && err.contains("timing"), "{err}");
+    assert!(!t.path().join("reports/quick/fine-n200.json").exists(), "refused before anything ran");
+}

@@ -7,6 +7,7 @@ pub mod fit_stage;
 pub mod laws;
 pub mod plot;
 pub mod plot_lines;
+pub mod plot_points;
 pub mod psd;
 pub mod snapshot;
 pub mod tables;

@@ -14,8 +14,8 @@
 //!   of every row) and `profile` (the profile's setting per method: error, standard error,
 //!   wall time), read by the report page's "error vs run time" table — wall times are
 //!   measurements, kept out of `table` and the scalars so those stay bit-identical;
-//! - the figure: error against wall time, log–log, one series per method and quantity,
-//!   ± standard error bars.
+//! - no figure: the plot `wp-atlas` (stages/wp-atlas.yaml) draws `table`'s errors against
+//!   `timing`'s wall times, log–log, one series per method and quantity.
 //! Nothing is run here: the stage only reads tables, so its quick cost is ≈ 0.
 
 use std::collections::BTreeMap;
@@ -23,7 +23,6 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::pipeline::context::{InputRef, Output, StageCtx, col_f64, frame};
-use crate::report::plot::{Chart, Series, Style, footer};
 use crate::stages::{Kind, Validate, decode, typed};
 use crate::validate::{Checker, Issue};
 
@@ -449,44 +448,6 @@ fn run(ctx: &StageCtx) -> anyhow::Result<Output> {
             ),
         ])?,
     );
-    // figure: error vs wall time per (method, quantity)
-    let mut series = Vec::new();
-    let mut keys: Vec<(&str, &str)> = rows.iter().map(|r| (r.method, r.quantity)).collect();
-    keys.dedup();
-    for (ci, (m, q)) in keys.iter().enumerate() {
-        let pts: Vec<&Row> = rows
-            .iter()
-            .filter(|r| r.method == *m && r.quantity == *q && !r.reference && r.error > 0.0)
-            .collect();
-        let s = Series::new(
-            format!("{} {q}", m.to_uppercase()),
-            Style::Points,
-            pts.iter().map(|r| (r.wall_s, r.error)).collect(),
-            ci,
-        );
-        let s = if pts.iter().any(|r| r.error_se.is_finite()) {
-            s.with_errors(
-                pts.iter()
-                    .map(|r| if r.error_se.is_finite() { r.error_se } else { 0.0 })
-                    .collect(),
-            )
-        } else {
-            s
-        };
-        series.push(s);
-    }
-    let note = format!("{n_sound} of {} Richardson triples sound", ord.len());
-    let chart = Chart {
-        legend: crate::report::plot::Legend::LowerLeft,
-        ..Chart::log_log(
-            "Work-precision atlas: relative error against wall time of one run".into(),
-            footer(&ctx.profile, &note),
-            "wall time of one run [s]",
-            "|Q − Q_ref| / Q_ref",
-            series,
-        )
-    };
-    out.figure("figure", chart.to_svg()?);
     let members = |m: &str| {
         rows.iter()
             .filter(|r| r.method == m)
@@ -506,8 +467,8 @@ pub const KIND: Kind = Kind {
     name: "wp-summary",
     source: file!(),
     method: None,
-    version: 5,
-    about: "work-precision atlas: every work-precision stage's error vs wall time in one table and figure, observed orders, the profile's error and cost",
+    version: 6,
+    about: "work-precision atlas: every work-precision stage's error vs wall time in one table (drawn by a plot), observed orders, the profile's error and cost",
     params: typed::<SummaryParams>,
     run,
     explain: None,
