@@ -7,7 +7,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::cd::CdParams;
 use crate::pipeline::context::{Output, StageCtx, frame};
-use crate::report::plot::{Chart, Series, Style, footer};
 use crate::stages::Validate;
 use crate::stages::calib::cd_shear::check_cd;
 use crate::stages::kind::{CostCtx, Work};
@@ -224,6 +223,16 @@ pub(super) fn run(ctx: &StageCtx, p: WpParams) -> anyhow::Result<Output> {
         frame(vec![
             ("dt_s", p.variants.iter().map(|v| v.dt).collect()),
             ("tolerance", p.variants.iter().map(|v| v.tolerance).collect()),
+            // the first variant is the reference; a capped variant sets its own NLGS
+            // iteration cap (its figure draws the capped ones as one series)
+            ("reference", (0..p.variants.len()).map(|i| (i == 0) as u8 as f64).collect()),
+            (
+                "capped",
+                p.variants
+                    .iter()
+                    .map(|v| v.max_iterations.is_some_and(|m| m != p.cd.max_iterations) as u8 as f64)
+                    .collect(),
+            ),
             (
                 "max_iterations",
                 p.variants
@@ -270,87 +279,6 @@ pub(super) fn run(ctx: &StageCtx, p: WpParams) -> anyhow::Result<Output> {
         v0.dt, v0.tolerance, v0.max_iterations.map(|m| format!(", ≤ {m} iterations")).unwrap_or_default(), st_l[0].0, st_d[0].0, state.len(), p.v0, p.run_time,
         if members > 1 { format!(" Every variant runs the same {members} starts (member 0 the settled deposit, the others with every grain jittered by ≤ {:.0e} m, ChaCha8 seed {}): errors are differences of ensemble means ± their standard error.", p.ensemble.perturbation_m, p.ensemble.seed) } else { String::new() }
     ));
-    let err_bars = |idx: &[usize], se: &[f64]| -> Vec<f64> {
-        idx.iter()
-            .map(|&i| if se[i].is_finite() { se[i] } else { 0.0 })
-            .collect()
-    };
-    let mut series = Vec::new();
-    let default_cap = p.cd.max_iterations;
-    let mut tols: Vec<f64> = p
-        .variants
-        .iter()
-        .skip(1)
-        .filter(|v| v.max_iterations.is_none())
-        .map(|v| v.tolerance)
-        .collect();
-    tols.sort_by(|a, b| b.total_cmp(a));
-    tols.dedup();
-    for (k, t) in tols.iter().enumerate() {
-        let idx: Vec<usize> = (1..rows.len())
-            .filter(|&i| p.variants[i].tolerance == *t && p.variants[i].max_iterations.is_none())
-            .collect();
-        let s = Series::new(
-            format!("centre-of-mass travel, tolerance {t:.0e} (points: h)"),
-            Style::LinePoints,
-            idx.iter().map(|&i| (wall[i], err_c[i].max(1e-6))).collect(),
-            k,
-        );
-        series.push(if members > 1 {
-            s.with_errors(err_bars(&idx, &se_c))
-        } else {
-            s
-        });
-    }
-    let capped: Vec<usize> = (1..rows.len())
-        .filter(|&i| p.variants[i].max_iterations.is_some_and(|m| m != default_cap))
-        .collect();
-    if !capped.is_empty() {
-        let s = Series::new(
-            "centre-of-mass travel, NLGS iteration cap (points: cap)".to_string(),
-            Style::LinePoints,
-            capped.iter().map(|&i| (wall[i], err_c[i].max(1e-6))).collect(),
-            5,
-        );
-        series.push(if members > 1 {
-            s.with_errors(err_bars(&capped, &se_c))
-        } else {
-            s
-        });
-    }
-    let all: Vec<usize> = (1..rows.len()).collect();
-    let s = Series::new(
-        "dissipated energy, all variants",
-        Style::Points,
-        all.iter().map(|&i| (wall[i], err_d[i].max(1e-6))).collect(),
-        7,
-    );
-    series.push(if members > 1 {
-        s.with_errors(err_bars(&all, &se_d))
-    } else {
-        s
-    });
-    let chart = Chart {
-        y_label: "relative error vs the reference".into(),
-        ..Chart::work_precision(
-            ctx.caption.clone().unwrap_or_else(|| "Work-precision of CD".into()),
-            footer(
-                &ctx.profile,
-                &format!(
-                    "reference h = {:.1e} s, tol {:.0e}{}",
-                    v0.dt,
-                    v0.tolerance,
-                    if members > 1 {
-                        format!(", {members} starts per variant, ± s.e.")
-                    } else {
-                        String::new()
-                    }
-                ),
-            ),
-            series,
-        )
-    };
-    out.figure("figure", chart.to_svg()?);
     Ok(out)
 }
 

@@ -7,7 +7,6 @@ use super::wp_summary::ensemble_error;
 use crate::dem::DemParams;
 use crate::dem::column::{CollapseParams, Variant, work_precision};
 use crate::pipeline::context::{Output, StageCtx, frame};
-use crate::report::plot::{Chart, Series, Style, footer};
 use crate::stages::Validate;
 use crate::stages::column::dem_common::{check_dem, column_from};
 use crate::stages::column::dem_prep::PrepParams;
@@ -117,6 +116,10 @@ pub(super) fn run(ctx: &StageCtx, mut p: WpParams) -> anyhow::Result<Output> {
             ),
             ("dt_fraction", rows.iter().map(|r| r.variant.dt_fraction).collect()),
             ("grains", grains.clone()),
+            // the first row is the reference; the others at the column's own size form the
+            // stiffness × step sweep, the rest are the smaller (coarser) column's
+            ("reference", (0..rows.len()).map(|i| (i == 0) as u8 as f64).collect()),
+            ("full_size", grains.iter().map(|g| (*g == n_full) as u8 as f64).collect()),
             ("dt_s", rows.iter().map(|r| r.dt).collect()),
             ("steps", rows.iter().map(|r| r.steps as f64).collect()),
             ("members", rows.iter().map(|r| r.delta_l.len() as f64).collect()),
@@ -195,63 +198,6 @@ pub(super) fn run(ctx: &StageCtx, mut p: WpParams) -> anyhow::Result<Output> {
         p.ensemble.members, p.ensemble.perturbation_m, rows[0].variant.label, rows[0].variant.stiffness_factor, rows[0].variant.dt_fraction, rows[0].mean, rows[0].spread,
         rows.iter().map(|r| format!("{} {:.3} ± {:.3}, {:.1} s", r.variant.label, r.mean, r.spread, r.wall_s)).collect::<Vec<_>>().join("; ")
     ));
-    let mut factors: Vec<f64> = rows
-        .iter()
-        .zip(&grains)
-        .skip(1)
-        .filter(|(_, g)| **g == n_full)
-        .map(|(r, _)| r.variant.stiffness_factor)
-        .collect();
-    factors.sort_by(|a, b| b.total_cmp(a));
-    factors.dedup();
-    let series = factors
-        .iter()
-        .enumerate()
-        .map(|(k, f)| {
-            let sel: Vec<&crate::dem::column::WorkPrecisionRow> = rows
-                .iter()
-                .zip(&grains)
-                .skip(1)
-                .filter(|(r, g)| r.variant.stiffness_factor == *f && **g == n_full)
-                .map(|(r, _)| r)
-                .collect();
-            Series::new(
-                format!("k_n × {f} (mean error ± s.e.)"),
-                Style::LinePoints,
-                sel.iter().map(|r| (r.wall_s, r.error.max(1e-4))).collect(),
-                k,
-            )
-            .with_errors(sel.iter().map(|r| r.error_spread).collect())
-        })
-        .collect::<Vec<_>>();
-    let mut series = series;
-    for (r, g) in rows.iter().zip(&grains).filter(|(_, g)| **g != n_full) {
-        series.push(
-            Series::new(
-                format!("{g} grains (of {n_full}), {}", r.variant.label),
-                Style::Points,
-                vec![(r.wall_s, r.error.max(1e-4))],
-                6,
-            )
-            .with_errors(vec![r.error_spread]),
-        );
-    }
-    let chart = Chart::work_precision(
-        ctx.caption.clone().unwrap_or_else(|| "DEM work-precision".into()),
-        footer(
-            &ctx.profile,
-            &format!(
-                "reference: {} (ΔL = {:.3} ± {:.3}), {} grains, {} starts per setting",
-                rows[0].variant.label,
-                rows[0].mean,
-                rows[0].spread,
-                col.state.len(),
-                p.ensemble.members
-            ),
-        ),
-        series,
-    );
-    out.figure("figure", chart.to_svg()?);
     Ok(out)
 }
 
