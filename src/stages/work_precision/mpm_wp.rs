@@ -7,7 +7,6 @@ use super::wp_summary::ensemble_error;
 use crate::mpm::column::{CollapseOptions, CollapseResult, ColumnSpec, collapse};
 use crate::mpm::{MpmParams, StepRule};
 use crate::pipeline::context::{Output, StageCtx, frame};
-use crate::report::plot::{Chart, Series, Style, footer};
 use crate::stages::Validate;
 use crate::stages::column::mpm_common::{calibrate, check_mpm};
 use crate::stages::column::mpm_common::{cfl, points};
@@ -234,17 +233,6 @@ fn ep_final(r: &WpRuns) -> Vec<f64> {
         .collect()
 }
 
-fn setting_label(s: &WpSetting) -> String {
-    let mut l = format!("{} PPC, h = {} mm, Courant {}", s.0, s.1 * 1e3, s.2);
-    if s.3 != crate::mpm::params::Shape::Gimp {
-        l.push_str(", linear shape functions");
-    }
-    if s.4 != crate::mpm::Scheme::Usl {
-        l.push_str(&format!(", {}", s.4.name()));
-    }
-    l
-}
-
 pub(super) fn run(ctx: &StageCtx, mut p: WorkPrecisionParams) -> anyhow::Result<Output> {
     use crate::mpm::Scheme;
     use crate::mpm::params::Shape;
@@ -468,56 +456,6 @@ pub(super) fn run(ctx: &StageCtx, mut p: WorkPrecisionParams) -> anyhow::Result<
         reference.runs[0].points, reference.runs[0].steps, reference.wall_s,
         if members > 1 { format!("Every setting runs {members} starts (member 0 as built, the others with every point given a random velocity ≤ {} √(g H_0) per axis at release, ChaCha8 seed {}): errors are differences of ensemble means ± their standard error. ", p.ensemble.perturbation, p.ensemble.seed) } else { String::new() },
     ));
-    let mut series = Vec::new();
-    let mut ci = 0;
-    for &h in &p.cell_sizes {
-        for &k in &p.courants {
-            let sel: Vec<&(WpSetting, WpRuns)> = rows
-                .iter()
-                .filter(|r| r.0.1 == h && r.0.2 == k && r.0.3 == shape0 && r.0.4 == scheme0)
-                .collect();
-            let s = Series::new(
-                format!("h = {} mm, Courant {k} (PPC {:?})", h * 1e3, p.ppc),
-                Style::LinePoints,
-                sel.iter().map(|r| (r.1.wall_s, err(&r.1).max(1e-6))).collect(),
-                ci,
-            );
-            series.push(if members > 1 {
-                s.with_errors(sel.iter().map(|r| err_se(&r.1)).collect())
-            } else {
-                s
-            });
-            ci += 1;
-        }
-    }
-    for (s, r) in rows.iter().filter(|r| r.0.3 != shape0 || r.0.4 != scheme0) {
-        let ser = Series::new(setting_label(s), Style::Points, vec![(r.wall_s, err(r).max(1e-6))], ci);
-        series.push(if members > 1 {
-            ser.with_errors(vec![err_se(r)])
-        } else {
-            ser
-        });
-        ci += 1;
-    }
-    let chart = Chart::work_precision(
-        ctx.caption.clone().unwrap_or_else(|| "MPM work-precision".into()),
-        footer(
-            &ctx.profile,
-            &format!(
-                "reference ΔL = {ref_dl:.4} ({} PPC, h = {} mm, Courant {}){}",
-                p.reference.0,
-                p.reference.1 * 1e3,
-                p.reference.2,
-                if members > 1 {
-                    format!(", {members} starts per setting, ± s.e.")
-                } else {
-                    String::new()
-                }
-            ),
-        ),
-        series,
-    );
-    out.figure("figure", chart.to_svg()?);
     Ok(out)
 }
 

@@ -85,7 +85,7 @@ pub const KIND: Kind = Kind {
     name: "work-precision",
     source: file!(),
     method: None,
-    version: 2,
+    version: 3,
     about: "error vs wall time of one method (`method:`) over its resolution knobs: DEM stiffness × time step (column run-out), CD time step × NLGS tolerance (pile impact), MPM PPC × cell size × Courant (column run-out)",
     params,
     run,
